@@ -1,1 +1,45 @@
-//! placeholder
+//! Object maps of boulder landmarks and the file formats around them.
+//!
+//! - [`ObjectMap`] / [`Landmark`]: boulder centroids with covariance and provenance, in one
+//!   frame; read and written as a versioned JSON file ([`read_map`], [`write_map`]; format
+//!   in `maps/FORMAT.md` and [`map_file`]).
+//! - [`Traverse`]: a LunarLoc `traverse_N.csv` (rover trajectory + boulder detections),
+//!   [`read_lunarloc_traverse`].
+//! - [`DetectionSet`]: boulder detections of one session; segloc's own detections CSV
+//!   ([`read_detections`], [`write_detections`]) and [`read_any_detections`], which also
+//!   takes a traverse.
+//! - [`LacGrid`]: the Lunar Autonomy Challenge 180 × 180 height / rock grid and its CSV
+//!   ([`read_grid_csv`], [`write_grid_csv`]).
+//!
+//! Every reader returns a [`MapError`] naming the file (and line) on bad input; every writer
+//! is atomic (temporary file in the same directory, then rename).
+#![warn(missing_docs)]
+
+pub mod atomic;
+pub mod detections;
+pub mod error;
+pub mod grid;
+pub mod landmark;
+pub mod map_file;
+pub mod object_map;
+pub mod traverse;
+
+pub use atomic::write_atomic;
+pub use detections::{
+    detections_to_string, parse_detections, read_any_detections, read_detections, write_detections,
+    Detection, DetectionSet, DETECTIONS_FORMAT_VERSION, DETECTIONS_HEADER,
+};
+pub use error::MapError;
+pub use grid::{
+    grid_to_string, parse_grid_csv, read_grid_csv, write_grid_csv, LacGrid, GRID_HEADER,
+    LAC_CELLS_PER_SIDE, LAC_CELL_SIZE_M,
+};
+pub use landmark::{check_covariance, Landmark};
+pub use map_file::{
+    map_from_str, map_to_string, read_map, write_map, MAP_FORMAT_NAME, MAP_FORMAT_VERSION,
+};
+pub use object_map::ObjectMap;
+pub use traverse::{
+    parse_lunarloc_traverse, parse_point_list, read_lunarloc_traverse, Traverse, TraverseFrame,
+    TRAVERSE_HEADER,
+};

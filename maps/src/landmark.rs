@@ -1,0 +1,156 @@
+//! One boulder landmark of an object map.
+
+use nalgebra::{Matrix3, Point3};
+use serde::{Deserialize, Serialize};
+
+/// A boulder landmark: a 3D centroid with its uncertainty and provenance.
+///
+/// ```
+/// use segloc_maps::Landmark;
+/// use nalgebra::{Matrix3, Point3};
+/// let lm = Landmark::new(4, Point3::new(1.0, 2.0, 0.5), Matrix3::identity() * 0.01);
+/// assert_eq!(lm.observations, 1);
+/// assert!(lm.check().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Landmark {
+    /// Identifier, unique within its map.
+    pub id: u32,
+    /// Centroid in the map's frame, metres.
+    pub position: Point3<f64>,
+    /// Position covariance, m² (symmetric positive semi-definite).
+    pub covariance: Matrix3<f64>,
+    /// Boulder diameter in metres, when known.
+    pub size_m: Option<f64>,
+    /// Number of detections fused into this landmark.
+    pub observations: u32,
+    /// Sessions / agents that observed it (empty means: the map's own session).
+    pub sessions: Vec<String>,
+}
+
+/// Relative tolerance for the symmetry and positive-semi-definiteness checks.
+const COV_REL_TOL: f64 = 1e-6;
+
+impl Landmark {
+    /// A landmark seen once, with no size and no extra provenance.
+    pub fn new(id: u32, position: Point3<f64>, covariance: Matrix3<f64>) -> Self {
+        Landmark {
+            id,
+            position,
+            covariance,
+            size_m: None,
+            observations: 1,
+            sessions: Vec::new(),
+        }
+    }
+
+    /// Check this landmark on its own: finite position, finite symmetric PSD covariance
+    /// (within a small relative tolerance), finite non-negative size.
+    ///
+    /// The message does not name the landmark; [`crate::ObjectMap::validate`] adds that.
+    pub fn check(&self) -> Result<(), String> {
+        let p = &self.position;
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+            return Err(format!(
+                "position ({}, {}, {}) is not finite",
+                p.x, p.y, p.z
+            ));
+        }
+        check_covariance(&self.covariance)?;
+        if let Some(s) = self.size_m {
+            if !(s.is_finite() && s >= 0.0) {
+                return Err(format!("size_m {s} is not a finite non-negative number"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Check a 3×3 covariance: finite, symmetric, non-negative diagonal, no clearly negative
+/// eigenvalue (tolerance relative to the trace).
+pub fn check_covariance(c: &Matrix3<f64>) -> Result<(), String> {
+    if c.iter().any(|v| !v.is_finite()) {
+        return Err("covariance has a non-finite entry".to_string());
+    }
+    for k in 0..3 {
+        if c[(k, k)] < 0.0 {
+            let axis = ["x", "y", "z"][k];
+            return Err(format!(
+                "covariance has a negative variance {axis}{axis} = {}",
+                c[(k, k)]
+            ));
+        }
+    }
+    let scale = c.trace().max(f64::MIN_POSITIVE);
+    for (r, col) in [(0, 1), (0, 2), (1, 2)] {
+        if (c[(r, col)] - c[(col, r)]).abs() > COV_REL_TOL * scale {
+            return Err(format!(
+                "covariance is not symmetric: entry ({r},{col}) = {} but ({col},{r}) = {}",
+                c[(r, col)],
+                c[(col, r)]
+            ));
+        }
+    }
+    let min_eig = c.symmetric_eigenvalues().min();
+    if min_eig < -COV_REL_TOL * scale {
+        return Err(format!(
+            "covariance is not positive semi-definite (smallest eigenvalue {min_eig:e})"
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lm() -> Landmark {
+        Landmark::new(1, Point3::new(1.0, 2.0, 3.0), Matrix3::identity() * 0.04)
+    }
+
+    #[test]
+    fn good_landmark_passes() {
+        assert!(lm().check().is_ok());
+        let mut l = lm();
+        l.covariance = Matrix3::zeros();
+        assert!(l.check().is_ok(), "zero covariance is PSD");
+    }
+
+    #[test]
+    fn nan_position_fails() {
+        let mut l = lm();
+        l.position.y = f64::NAN;
+        assert!(l.check().unwrap_err().contains("not finite"));
+    }
+
+    #[test]
+    fn negative_variance_fails() {
+        let mut l = lm();
+        l.covariance[(2, 2)] = -0.1;
+        assert!(l.check().unwrap_err().contains("zz"));
+    }
+
+    #[test]
+    fn asymmetric_or_indefinite_fails() {
+        let mut l = lm();
+        l.covariance[(0, 1)] = 0.01;
+        assert!(l.check().unwrap_err().contains("symmetric"));
+        l.covariance[(1, 0)] = 0.01;
+        assert!(l.check().is_ok());
+        // |xy| > sqrt(xx yy): indefinite
+        l.covariance[(0, 1)] = 0.1;
+        l.covariance[(1, 0)] = 0.1;
+        assert!(l.check().unwrap_err().contains("semi-definite"));
+    }
+
+    #[test]
+    fn bad_size_fails() {
+        let mut l = lm();
+        l.size_m = Some(-1.0);
+        assert!(l.check().is_err());
+        l.size_m = Some(f64::INFINITY);
+        assert!(l.check().is_err());
+        l.size_m = Some(0.3);
+        assert!(l.check().is_ok());
+    }
+}

@@ -1,0 +1,514 @@
+//! LunarLoc traverse CSV files (`traverse_N.csv`).
+//!
+//! ```text
+//! frame,x,y,z,detections,boulders
+//! 1,-3.5155,-6.9009,1.4826,0,[]
+//! 120,-3.5185,-6.8368,1.5035,2,"[(-3.0341, -4.9741, 1.3523), (-3.5111, -4.1534, 1.3662)]"
+//! ```
+//!
+//! `x,y,z` is the ground-truth rover position (world frame, metres); `boulders` is a
+//! Python-style list of `(x, y, z)` boulder centroids in the world frame, with as many
+//! tuples as `detections` says. The parser is hand-written (no regex), tolerant of spaces,
+//! `\r\n` line ends, a trailing comma and `[x, y, z]` lists instead of tuples, and strict on
+//! everything else: every error names the file and line.
+
+use std::path::Path;
+
+use nalgebra::{Isometry3, Point3};
+
+use crate::atomic::read_text;
+use crate::error::snippet;
+use crate::{Detection, DetectionSet, MapError};
+
+/// The header line of a LunarLoc traverse CSV.
+pub const TRAVERSE_HEADER: &str = "frame,x,y,z,detections,boulders";
+
+/// One LunarLoc traverse: the rover trajectory and the boulders detected along it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Traverse {
+    /// Name, from the file stem (e.g. "traverse_3").
+    pub name: String,
+    /// One entry per CSV row, in file order.
+    pub frames: Vec<TraverseFrame>,
+}
+
+/// One row of a traverse: a simulator frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraverseFrame {
+    /// Simulator frame index (20 Hz).
+    pub frame: u64,
+    /// Ground-truth rover position, world frame, metres.
+    pub rover_position: Point3<f64>,
+    /// Boulder centroids detected in this frame, world frame, metres (often empty).
+    pub boulders: Vec<Point3<f64>>,
+}
+
+impl Traverse {
+    /// All boulder detections as a [`DetectionSet`] (session = the traverse name, frame
+    /// "world", gravity aligned), each carrying the rover position it was seen from.
+    pub fn detections(&self) -> DetectionSet {
+        let detections = self
+            .frames
+            .iter()
+            .flat_map(|f| {
+                f.boulders.iter().map(move |b| Detection {
+                    frame: f.frame,
+                    p_world: *b,
+                    rover_position: Some(f.rover_position),
+                    size_m: None,
+                    score: None,
+                })
+            })
+            .collect();
+        DetectionSet {
+            session: self.name.clone(),
+            frame: "world".to_string(),
+            gravity_aligned: true,
+            detections,
+        }
+    }
+
+    /// The rover positions of every frame, in order.
+    pub fn trajectory(&self) -> Vec<Point3<f64>> {
+        self.frames.iter().map(|f| f.rover_position).collect()
+    }
+
+    /// Total number of boulder detections over all frames.
+    pub fn num_detections(&self) -> usize {
+        self.frames.iter().map(|f| f.boulders.len()).sum()
+    }
+
+    /// The traverse as seen in another frame: every rover position and boulder is mapped by
+    /// `a_from_b` (use this to make a traverse "another session" with a known transform).
+    pub fn transformed(&self, a_from_b: &Isometry3<f64>) -> Traverse {
+        Traverse {
+            name: self.name.clone(),
+            frames: self
+                .frames
+                .iter()
+                .map(|f| TraverseFrame {
+                    frame: f.frame,
+                    rover_position: a_from_b * f.rover_position,
+                    boulders: f.boulders.iter().map(|b| a_from_b * b).collect(),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Read a LunarLoc `traverse_N.csv`; the traverse is named after the file stem.
+pub fn read_lunarloc_traverse(path: &Path) -> Result<Traverse, MapError> {
+    let text = read_text(path)?;
+    parse_lunarloc_traverse(&text, path)
+}
+
+/// Parse the text of a LunarLoc traverse CSV; `source` names it in errors and gives the
+/// traverse its name (file stem).
+pub fn parse_lunarloc_traverse(text: &str, source: &Path) -> Result<Traverse, MapError> {
+    let name = source
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, header)) if header_matches(header, TRAVERSE_HEADER) => {}
+        Some((_, header)) => {
+            return Err(MapError::parse_at(
+                source,
+                1,
+                format!(
+                    "expected the LunarLoc header '{TRAVERSE_HEADER}', got '{}'",
+                    snippet(header, 80)
+                ),
+            ))
+        }
+        None => {
+            return Err(MapError::parse(
+                source,
+                format!("the file is empty; expected the LunarLoc header '{TRAVERSE_HEADER}'"),
+            ))
+        }
+    }
+    let mut frames = Vec::with_capacity(text.len() / 64);
+    for (index, line) in lines {
+        let line_no = index + 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let frame = parse_row(line).map_err(|m| MapError::parse_at(source, line_no, m))?;
+        frames.push(frame);
+    }
+    Ok(Traverse { name, frames })
+}
+
+/// Whether a header line equals `expected`, ignoring spaces around names and a BOM.
+pub(crate) fn header_matches(line: &str, expected: &str) -> bool {
+    let line = line.trim_start_matches('\u{feff}');
+    let mut got = line.split(',').map(str::trim);
+    let mut want = expected.split(',');
+    loop {
+        match (got.next(), want.next()) {
+            (None, None) => return true,
+            (Some(g), Some(w)) if g == w => {}
+            _ => return false,
+        }
+    }
+}
+
+fn parse_row(line: &str) -> Result<TraverseFrame, String> {
+    let mut fields = line.splitn(6, ',');
+    let mut next = |name: &str| {
+        fields.next().ok_or_else(|| {
+            format!("expected 6 fields ({TRAVERSE_HEADER}), the row ends before '{name}'")
+        })
+    };
+    let frame_text = next("frame")?;
+    let frame: u64 = frame_text.trim().parse().map_err(|_| {
+        format!(
+            "frame: expected a non-negative integer, got '{}'",
+            snippet(frame_text, 30)
+        )
+    })?;
+    let x = parse_finite(next("x")?, "x")?;
+    let y = parse_finite(next("y")?, "y")?;
+    let z = parse_finite(next("z")?, "z")?;
+    let count_text = next("detections")?;
+    let count: usize = count_text.trim().parse().map_err(|_| {
+        format!(
+            "detections: expected a non-negative integer, got '{}'",
+            snippet(count_text, 30)
+        )
+    })?;
+    let raw = next("boulders")?.trim();
+    let list = if let Some(inner) = raw.strip_prefix('"') {
+        inner
+            .strip_suffix('"')
+            .ok_or_else(|| "boulders: unterminated quoted field".to_string())?
+    } else {
+        raw
+    };
+    let mut boulders = Vec::with_capacity(count);
+    parse_point_list(list, &mut boulders)?;
+    if boulders.len() != count {
+        return Err(format!(
+            "detections says {count} but boulders lists {} tuple{}",
+            boulders.len(),
+            if boulders.len() == 1 { "" } else { "s" }
+        ));
+    }
+    Ok(TraverseFrame {
+        frame,
+        rover_position: Point3::new(x, y, z),
+        boulders,
+    })
+}
+
+fn parse_finite(text: &str, name: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let v: f64 = t
+        .parse()
+        .map_err(|_| format!("{name}: expected a number, got '{}'", snippet(t, 30)))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{name}: '{t}' is not a finite number"))
+    }
+}
+
+/// Parse a Python-style list of 3-tuples, `[(x, y, z), (x, y, z)]` or `[]`, appending the
+/// points to `out`. Errors say what was expected and quote the input where it went wrong.
+pub fn parse_point_list(text: &str, out: &mut Vec<Point3<f64>>) -> Result<(), String> {
+    let mut p = Cursor {
+        s: text.as_bytes(),
+        i: 0,
+        text,
+    };
+    p.ws();
+    if !p.eat(b'[') {
+        return Err(p.expected("a list starting with '['"));
+    }
+    p.ws();
+    if p.eat(b']') {
+        return p.end();
+    }
+    loop {
+        let close = if p.eat(b'(') {
+            b')'
+        } else if p.eat(b'[') {
+            b']'
+        } else {
+            return Err(p.expected("'(x, y, z)' tuples"));
+        };
+        let mut xyz = [0.0; 3];
+        for (k, v) in xyz.iter_mut().enumerate() {
+            p.ws();
+            *v = p.number(out.len())?;
+            p.ws();
+            if k < 2 && !p.eat(b',') {
+                return Err(p.expected("'(x, y, z)' tuples"));
+            }
+        }
+        if p.eat(b',') {
+            p.ws(); // tolerate a trailing comma inside the tuple
+        }
+        if !p.eat(close) {
+            return Err(p.expected("'(x, y, z)' tuples"));
+        }
+        out.push(Point3::new(xyz[0], xyz[1], xyz[2]));
+        p.ws();
+        if p.eat(b',') {
+            p.ws();
+            if p.eat(b']') {
+                return p.end();
+            }
+        } else if p.eat(b']') {
+            return p.end();
+        } else {
+            return Err(p.expected("',' or ']' after a tuple"));
+        }
+    }
+}
+
+struct Cursor<'a> {
+    s: &'a [u8],
+    i: usize,
+    text: &'a str,
+}
+
+impl Cursor<'_> {
+    fn ws(&mut self) {
+        while self.i < self.s.len() && self.s[self.i].is_ascii_whitespace() {
+            self.i += 1;
+        }
+    }
+
+    fn eat(&mut self, c: u8) -> bool {
+        if self.s.get(self.i) == Some(&c) {
+            self.i += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    fn rest(&self) -> &str {
+        // `i` only ever advances over ASCII bytes, so it is a char boundary
+        self.text.get(self.i..).unwrap_or("")
+    }
+
+    fn expected(&self, what: &str) -> String {
+        let rest = self.rest();
+        if rest.is_empty() {
+            format!("boulders: expected {what}, got the end of the field")
+        } else {
+            format!("boulders: expected {what}, got '{}'", snippet(rest, 40))
+        }
+    }
+
+    fn number(&mut self, index: usize) -> Result<f64, String> {
+        let start = self.i;
+        while self.i < self.s.len() && !matches!(self.s[self.i], b',' | b')' | b']' | b' ' | b'\t')
+        {
+            self.i += 1;
+        }
+        let tok = self.text.get(start..self.i).unwrap_or("");
+        let v: f64 = tok.parse().map_err(|_| {
+            self.i = start;
+            self.expected("'(x, y, z)' tuples of numbers")
+        })?;
+        if !v.is_finite() {
+            return Err(format!(
+                "boulders: tuple {} has a non-finite coordinate '{tok}'",
+                index + 1
+            ));
+        }
+        Ok(v)
+    }
+
+    fn end(&mut self) -> Result<(), String> {
+        self.ws();
+        if self.i == self.s.len() {
+            Ok(())
+        } else {
+            Err(format!(
+                "boulders: unexpected text after the list: '{}'",
+                snippet(self.rest(), 40)
+            ))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+
+    const SAMPLE: &str = "frame,x,y,z,detections,boulders\n\
+        1,-3.5,-6.9,1.48,0,[]\n\
+        120,-3.5185,-6.8368,1.5035,2,\"[(-3.0341, -4.9741, 1.3523), (-3.5111, -4.1534, 1.3662)]\"\n";
+
+    fn parse(text: &str) -> Result<Traverse, MapError> {
+        parse_lunarloc_traverse(text, Path::new("dir/traverse_3.csv"))
+    }
+
+    fn err(text: &str) -> String {
+        parse(text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn parses_sample() {
+        let t = parse(SAMPLE).unwrap();
+        assert_eq!(t.name, "traverse_3");
+        assert_eq!(t.frames.len(), 2);
+        assert!(t.frames[0].boulders.is_empty());
+        assert_eq!(t.frames[1].frame, 120);
+        assert_eq!(
+            t.frames[1].boulders[1],
+            Point3::new(-3.5111, -4.1534, 1.3662)
+        );
+        assert_eq!(t.num_detections(), 2);
+        assert_eq!(t.trajectory()[0], Point3::new(-3.5, -6.9, 1.48));
+        let d = t.detections();
+        assert_eq!(d.session, "traverse_3");
+        assert_eq!(d.frame, "world");
+        assert!(d.gravity_aligned);
+        assert_eq!(d.detections.len(), 2);
+        assert_eq!(d.detections[0].frame, 120);
+        assert_eq!(
+            d.detections[0].rover_position,
+            Some(Point3::new(-3.5185, -6.8368, 1.5035))
+        );
+    }
+
+    #[test]
+    fn tolerates_crlf_spaces_trailing_comma_and_lists() {
+        let text = "frame, x, y, z, detections, boulders\r\n\
+            7,0,0,0,2,\"[ (1,2,3) , [4.5, 5e-1, -6,] , ]\"\r\n\r\n";
+        let t = parse(text).unwrap();
+        assert_eq!(
+            t.frames[0].boulders,
+            vec![Point3::new(1.0, 2.0, 3.0), Point3::new(4.5, 0.5, -6.0)]
+        );
+    }
+
+    #[test]
+    fn empty_boulder_list_forms() {
+        let t =
+            parse("frame,x,y,z,detections,boulders\n1,0,0,0,0,\"[ ]\"\n2,0,0,0,0,[]\n").unwrap();
+        assert!(t.frames.iter().all(|f| f.boulders.is_empty()));
+        // an empty list where detections says 1
+        let e = err("frame,x,y,z,detections,boulders\n1,0,0,0,1,[]\n");
+        assert_eq!(
+            e,
+            "dir/traverse_3.csv:2: detections says 1 but boulders lists 0 tuples"
+        );
+    }
+
+    #[test]
+    fn header_only_is_an_empty_traverse() {
+        assert!(parse("frame,x,y,z,detections,boulders\n")
+            .unwrap()
+            .frames
+            .is_empty());
+    }
+
+    #[test]
+    fn mismatched_count_names_line() {
+        let text = SAMPLE.replace(",2,\"[", ",3,\"[");
+        assert_eq!(
+            err(&text),
+            "dir/traverse_3.csv:3: detections says 3 but boulders lists 2 tuples"
+        );
+    }
+
+    #[test]
+    fn malformed_tuple_names_line_and_input() {
+        let text = "frame,x,y,z,detections,boulders\n1,0,0,0,0,[]\n2,0,0,0,1,\"[(1.0, 2.0]\"\n";
+        assert_eq!(
+            err(text),
+            "dir/traverse_3.csv:3: boulders: expected '(x, y, z)' tuples, got ']'"
+        );
+        let text = "frame,x,y,z,detections,boulders\n2,0,0,0,1,\"[(1.0, abc, 3)]\"\n";
+        let e = err(text);
+        assert!(
+            e.starts_with("dir/traverse_3.csv:2: boulders: expected"),
+            "{e}"
+        );
+        assert!(e.contains("abc"), "{e}");
+        let text = "frame,x,y,z,detections,boulders\n2,0,0,0,1,\"[(1, 2, 3)\"\n";
+        assert!(err(text).contains("got the end of the field"));
+        let text = "frame,x,y,z,detections,boulders\n2,0,0,0,1,\"[(1, 2, 3)] junk\"\n";
+        assert!(err(text).contains("unexpected text after the list: 'junk'"));
+        let text = "frame,x,y,z,detections,boulders\n2,0,0,0,1,\"[(1, 2, 3)]\n";
+        assert!(err(text).contains("unterminated"));
+    }
+
+    #[test]
+    fn nan_and_inf_rejected_with_line() {
+        let text = "frame,x,y,z,detections,boulders\n1,0,0,0,0,[]\n2,0,NaN,0,0,[]\n";
+        assert_eq!(
+            err(text),
+            "dir/traverse_3.csv:3: y: 'NaN' is not a finite number"
+        );
+        let text = "frame,x,y,z,detections,boulders\n2,0,0,0,1,\"[(1, inf, 3)]\"\n";
+        assert_eq!(
+            err(text),
+            "dir/traverse_3.csv:2: boulders: tuple 1 has a non-finite coordinate 'inf'"
+        );
+        let text = "frame,x,y,z,detections,boulders\n2,0,0,0,1,\"[(1, 2, nan)]\"\n";
+        assert!(err(text).contains("non-finite coordinate 'nan'"));
+    }
+
+    #[test]
+    fn short_row_and_bad_integers() {
+        assert_eq!(
+            err("frame,x,y,z,detections,boulders\n1,0,0\n"),
+            "dir/traverse_3.csv:2: expected 6 fields (frame,x,y,z,detections,boulders), the row ends before 'z'"
+        );
+        assert!(
+            err("frame,x,y,z,detections,boulders\n-1,0,0,0,0,[]\n").contains(":2: frame: expected")
+        );
+        assert!(err("frame,x,y,z,detections,boulders\n1,0,0,0,x,[]\n")
+            .contains(":2: detections: expected"));
+        assert!(err("frame,x,y,z,detections,boulders\n1,0,0,zz,0,[]\n")
+            .contains(":2: z: expected a number, got 'zz'"));
+    }
+
+    #[test]
+    fn bad_header_and_empty_file() {
+        assert!(
+            err("a,b,c\n1,2,3\n").starts_with("dir/traverse_3.csv:1: expected the LunarLoc header")
+        );
+        assert!(err("").contains("the file is empty"));
+    }
+
+    #[test]
+    fn missing_file_is_io_error_naming_it() {
+        let e = read_lunarloc_traverse(Path::new("/nonexistent/traverse_99.csv")).unwrap_err();
+        assert!(matches!(e, MapError::Io { .. }));
+        assert!(
+            e.to_string().contains("/nonexistent/traverse_99.csv"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn transformed_moves_everything() {
+        let t = parse(SAMPLE).unwrap();
+        let iso = Isometry3::from_parts(
+            Translation3::new(1.0, -2.0, 0.5),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.7),
+        );
+        let moved = t.transformed(&iso);
+        assert_eq!(moved.name, t.name);
+        assert_eq!(moved.frames[1].frame, 120);
+        let back = moved.transformed(&iso.inverse());
+        for (a, b) in back.frames.iter().zip(&t.frames) {
+            assert!((a.rover_position - b.rover_position).norm() < 1e-12);
+            for (p, q) in a.boulders.iter().zip(&b.boulders) {
+                assert!((p - q).norm() < 1e-12);
+            }
+        }
+        assert!((moved.frames[1].boulders[0] - iso * t.frames[1].boulders[0]).norm() < 1e-15);
+    }
+}
