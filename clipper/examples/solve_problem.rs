@@ -1,0 +1,215 @@
+//! Reads an association problem file (format: shared/docs/association.md), builds the
+//! consistency graph, solves it, and prints timings and precision / recall against
+//! `PROBLEM.gt` when present.
+//!
+//! cargo run --release -p segloc-clipper --example solve_problem -- PROBLEM [--repeat N]
+//!     [--strategy auto|join|scan] [--exact] [--no-prune]
+
+use std::time::Instant;
+
+use nalgebra::Point3;
+use segloc_clipper::{
+    choose_strategy, densest_clique, max_clique, Association, BuildStrategy, ConsistencyGraph,
+    DensestCliqueConfig, Invariant, MaxCliqueLimits,
+};
+
+struct Problem {
+    prior: Vec<Point3<f64>>,
+    query: Vec<Point3<f64>>,
+    associations: Vec<Association>,
+    invariant: Invariant,
+}
+
+fn parse(text: &str) -> Result<Problem, String> {
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let header: Vec<&str> = lines
+        .next()
+        .ok_or("empty file")?
+        .split_whitespace()
+        .collect();
+    if header.len() < 5 {
+        return Err("header needs n_prior n_query n_assoc epsilon sigma [dof]".into());
+    }
+    let num = |s: &str| s.parse::<f64>().map_err(|e| format!("{s}: {e}"));
+    let (np, nq, na) = (
+        num(header[0])? as usize,
+        num(header[1])? as usize,
+        num(header[2])? as usize,
+    );
+    let (epsilon, sigma) = (num(header[3])?, num(header[4])?);
+    let dof = if header.len() > 5 {
+        num(header[5])? as u32
+    } else {
+        6
+    };
+    let mut point = || -> Result<Point3<f64>, String> {
+        let l = lines.next().ok_or("missing point line")?;
+        let v: Vec<f64> = l.split_whitespace().map(num).collect::<Result<_, _>>()?;
+        if v.len() != 3 {
+            return Err(format!("bad point line: {l}"));
+        }
+        Ok(Point3::new(v[0], v[1], v[2]))
+    };
+    let prior = (0..np).map(|_| point()).collect::<Result<Vec<_>, _>>()?;
+    let query = (0..nq).map(|_| point()).collect::<Result<Vec<_>, _>>()?;
+    let associations = (0..na)
+        .map(|_| {
+            let l = lines.next().ok_or("missing association line")?;
+            let v: Vec<u32> = l
+                .split_whitespace()
+                .map(|s| s.parse::<u32>().map_err(|e| format!("{s}: {e}")))
+                .collect::<Result<_, _>>()?;
+            if v.len() != 2 {
+                return Err(format!("bad association line: {l}"));
+            }
+            Ok(Association::new(v[0], v[1]))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let invariant = if dof == 4 {
+        Invariant::GravityAligned {
+            epsilon,
+            sigma,
+            epsilon_z: epsilon,
+            sigma_z: sigma,
+        }
+    } else {
+        Invariant::Distance { epsilon, sigma }
+    };
+    Ok(Problem {
+        prior,
+        query,
+        associations,
+        invariant,
+    })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let path = args
+        .first()
+        .ok_or("usage: solve_problem PROBLEM [--repeat N]")?;
+    let mut repeat = 5usize;
+    let mut strategy = BuildStrategy::Auto;
+    let mut exact = false;
+    let mut prune = true;
+    let mut k = 1;
+    while k < args.len() {
+        match args[k].as_str() {
+            "--repeat" => {
+                k += 1;
+                repeat = args
+                    .get(k)
+                    .and_then(|s| s.parse().ok())
+                    .ok_or("--repeat N")?;
+            }
+            "--strategy" => {
+                k += 1;
+                strategy = match args.get(k).map(String::as_str) {
+                    Some("join") => BuildStrategy::Join,
+                    Some("scan") => BuildStrategy::PairwiseScan,
+                    _ => BuildStrategy::Auto,
+                };
+            }
+            "--exact" => exact = true,
+            "--no-prune" => prune = false,
+            other => return Err(format!("unknown argument {other}")),
+        }
+        k += 1;
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
+    let p = parse(&text)?;
+    let truth: Option<Vec<u32>> =
+        std::fs::read_to_string(format!("{path}.gt"))
+            .ok()
+            .and_then(|t| {
+                t.lines().next().map(|l| {
+                    l.split_whitespace()
+                        .filter_map(|s| s.parse().ok())
+                        .collect()
+                })
+            });
+    let chosen = match strategy {
+        BuildStrategy::Auto => choose_strategy(&p.prior, &p.query, &p.associations, &p.invariant)
+            .map_err(|e| e.to_string())?,
+        s => s,
+    };
+    let config = DensestCliqueConfig {
+        prune_by_core: prune,
+        ..Default::default()
+    };
+    let (mut t_graph, mut t_solve) = (Vec::new(), Vec::new());
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let t0 = Instant::now();
+        let g = ConsistencyGraph::build_with(
+            &p.prior,
+            &p.query,
+            &p.associations,
+            &p.invariant,
+            strategy,
+        )
+        .map_err(|e| e.to_string())?;
+        let t1 = Instant::now();
+        let s = if exact {
+            max_clique(&g, &MaxCliqueLimits::default()).map_err(|e| e.to_string())?
+        } else {
+            densest_clique(&g, &config)
+        };
+        let t2 = Instant::now();
+        t_graph.push((t1 - t0).as_secs_f64() * 1e3);
+        t_solve.push((t2 - t1).as_secs_f64() * 1e3);
+        last = Some((g, s));
+    }
+    let (g, s) = last.ok_or("no run")?;
+    let (tg, ts) = (median(t_graph), median(t_solve));
+    println!(
+        "associations {} vertices {} edges {} strategy {:?} threads {}",
+        p.associations.len(),
+        g.num_vertices(),
+        g.num_edges(),
+        chosen,
+        rayon::current_num_threads()
+    );
+    println!(
+        "graph_ms {tg:.2} solve_ms {ts:.2} total_ms {:.2} (median of {repeat})",
+        tg + ts
+    );
+    println!(
+        "clique {} objective {:.3} certified {} upper_bound {} pruned {} outer {} inner {} nodes {}",
+        s.vertices.len(),
+        s.objective,
+        s.certified_maximum,
+        s.upper_bound,
+        s.pruned_vertices,
+        s.outer_iterations,
+        s.inner_iterations,
+        s.search_nodes
+    );
+    if let Some(truth) = truth {
+        let tp = s
+            .vertices
+            .iter()
+            .filter(|v| truth.binary_search(v).is_ok())
+            .count() as f64;
+        let precision = if s.vertices.is_empty() {
+            0.0
+        } else {
+            tp / s.vertices.len() as f64
+        };
+        let recall = if truth.is_empty() {
+            1.0
+        } else {
+            tp / truth.len() as f64
+        };
+        println!(
+            "precision {precision:.4} recall {recall:.4} (truth {})",
+            truth.len()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,284 @@
+use super::*;
+use crate::testutil::{problem, Mode};
+
+fn distance(eps: f64, sigma: f64) -> Invariant {
+    Invariant::Distance {
+        epsilon: eps,
+        sigma,
+    }
+}
+
+fn gravity(eps: f64, sigma: f64) -> Invariant {
+    Invariant::GravityAligned {
+        epsilon: eps,
+        sigma,
+        epsilon_z: eps,
+        sigma_z: sigma,
+    }
+}
+
+/// Reference: test every pair with the exact function.
+fn brute_force(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    assoc: &[Association],
+    inv: &Invariant,
+) -> ConsistencyGraph {
+    let t = PairTest::new(inv).unwrap();
+    let mut e = Vec::new();
+    for u in 0..assoc.len() {
+        for v in u + 1..assoc.len() {
+            if let Some(w) = t.test_associations(prior, query, assoc[u], assoc[v]) {
+                e.push((u as u32, v as u32, w));
+            }
+        }
+    }
+    ConsistencyGraph::from_edge_list(assoc.len(), &e)
+}
+
+fn both(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    assoc: &[Association],
+    inv: &Invariant,
+) -> (ConsistencyGraph, ConsistencyGraph) {
+    let j = ConsistencyGraph::build_with(prior, query, assoc, inv, BuildStrategy::Join).unwrap();
+    let s = ConsistencyGraph::build_with(prior, query, assoc, inv, BuildStrategy::PairwiseScan)
+        .unwrap();
+    (j, s)
+}
+
+#[test]
+fn join_and_scan_agree_with_brute_force() {
+    let cases = [
+        (problem(25, Mode::All, 0.05, false, 1), distance(0.3, 0.1)),
+        (problem(25, Mode::All, 0.02, true, 2), gravity(0.1, 0.04)),
+        (
+            problem(
+                60,
+                Mode::Random {
+                    n_assoc: 600,
+                    outliers: 0.9,
+                },
+                0.05,
+                false,
+                3,
+            ),
+            distance(0.3, 0.1),
+        ),
+        (
+            problem(
+                60,
+                Mode::Random {
+                    n_assoc: 600,
+                    outliers: 0.8,
+                },
+                0.02,
+                true,
+                4,
+            ),
+            gravity(0.1, 0.04),
+        ),
+        // huge epsilon: nearly complete graph
+        (
+            problem(12, Mode::All, 0.05, false, 5),
+            distance(100.0, 10.0),
+        ),
+    ];
+    for (k, (p, inv)) in cases.iter().enumerate() {
+        let reference = brute_force(&p.prior, &p.query, &p.associations, inv);
+        let (j, s) = both(&p.prior, &p.query, &p.associations, inv);
+        assert!(reference.num_edges() > 0, "case {k}");
+        assert_eq!(j, reference, "join, case {k}");
+        assert_eq!(s, reference, "scan, case {k}");
+    }
+}
+
+#[test]
+fn join_and_scan_identical_on_larger_problems() {
+    let p = problem(40, Mode::All, 0.05, false, 9);
+    let (j, s) = both(&p.prior, &p.query, &p.associations, &distance(0.3, 0.1));
+    assert_eq!(j, s);
+    let p = problem(40, Mode::All, 0.02, true, 10);
+    let (j, s) = both(&p.prior, &p.query, &p.associations, &gravity(0.1, 0.04));
+    assert_eq!(j, s);
+    // sparse list: the join falls back to a hash lookup when the table would be large
+    let p = problem(
+        300,
+        Mode::Random {
+            n_assoc: 1500,
+            outliers: 0.9,
+        },
+        0.05,
+        false,
+        11,
+    );
+    let (j, s) = both(&p.prior, &p.query, &p.associations, &distance(0.3, 0.1));
+    assert_eq!(j, s);
+}
+
+#[test]
+fn coincident_and_far_points() {
+    // repeated points (zero distances) and large coordinates
+    let prior = vec![
+        Point3::new(1e4, 1e4, 0.0),
+        Point3::new(1e4, 1e4, 0.0),
+        Point3::new(1e4 + 3.0, 1e4, 0.5),
+        Point3::new(1e4, 1e4 + 4.0, 0.2),
+    ];
+    let query: Vec<_> = prior
+        .iter()
+        .map(|p| Point3::new(p.x - 2e4, p.y + 5e3, p.z + 100.0))
+        .collect();
+    let assoc: Vec<_> = (0..4)
+        .flat_map(|i| (0..4).map(move |j| Association::new(i, j)))
+        .collect();
+    for inv in [distance(0.01, 0.005), gravity(0.01, 0.005)] {
+        let reference = brute_force(&prior, &query, &assoc, &inv);
+        let (j, s) = both(&prior, &query, &assoc, &inv);
+        assert_eq!(j, reference);
+        assert_eq!(s, reference);
+        // (0,0)-(1,1): both pairs have distance 0 -> consistent
+        assert!(s.has_edge(0, 5));
+    }
+}
+
+#[test]
+fn one_to_one_rule() {
+    let p = problem(30, Mode::All, 0.05, false, 12);
+    let g = ConsistencyGraph::build(&p.prior, &p.query, &p.associations, &distance(100.0, 1.0))
+        .unwrap();
+    for u in 0..g.num_vertices() {
+        for &v in g.neighbors(u) {
+            let (a, b) = (p.associations[u], p.associations[v as usize]);
+            assert!(a.prior != b.prior && a.query != b.query);
+        }
+    }
+    // with a huge epsilon every pair not sharing a point is an edge
+    assert_eq!(g.num_edges(), 900 * (29 * 29) / 2);
+}
+
+#[test]
+fn gravity_aligned_sign_handling() {
+    // a yaw-only problem with height differences: the 4-DOF graph keeps every inlier pair
+    // and has far fewer edges than the 6-DOF one
+    let p = problem(30, Mode::All, 0.0, true, 13);
+    let g4 = ConsistencyGraph::build(&p.prior, &p.query, &p.associations, &gravity(0.01, 0.005))
+        .unwrap();
+    let g6 = ConsistencyGraph::build(&p.prior, &p.query, &p.associations, &distance(0.01, 0.005))
+        .unwrap();
+    let inliers: Vec<u32> = (0..p.truth.len() as u32)
+        .filter(|&k| p.truth[k as usize])
+        .collect();
+    assert!(g4.is_clique(&inliers));
+    assert!(g4.num_edges() < g6.num_edges());
+    // the mirrored problem (query heights negated) must lose the inlier edges in 4-DOF
+    let mirrored: Vec<_> = p
+        .query
+        .iter()
+        .map(|q| Point3::new(q.x, q.y, -q.z))
+        .collect();
+    let gm = ConsistencyGraph::build(&p.prior, &mirrored, &p.associations, &gravity(0.01, 0.005))
+        .unwrap();
+    let kept = inliers
+        .iter()
+        .enumerate()
+        .flat_map(|(a, &u)| inliers[a + 1..].iter().map(move |&v| (u, v)))
+        .filter(|&(u, v)| gm.has_edge(u as usize, v as usize))
+        .count();
+    assert!(kept < 30, "{kept} inlier edges survived mirroring");
+}
+
+#[test]
+fn thread_count_does_not_change_the_graph() {
+    let p = problem(
+        200,
+        Mode::Random {
+            n_assoc: 2000,
+            outliers: 0.9,
+        },
+        0.05,
+        false,
+        14,
+    );
+    let q = problem(30, Mode::All, 0.02, true, 15);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let inv = distance(0.3, 0.1);
+            let a = ConsistencyGraph::build_with(
+                &p.prior,
+                &p.query,
+                &p.associations,
+                &inv,
+                BuildStrategy::PairwiseScan,
+            )
+            .unwrap();
+            let b = ConsistencyGraph::build_with(
+                &q.prior,
+                &q.query,
+                &q.associations,
+                &gravity(0.1, 0.04),
+                BuildStrategy::Join,
+            )
+            .unwrap();
+            (a, b)
+        })
+    };
+    assert_eq!(run(1), run(2));
+    assert_eq!(run(1), run(3));
+}
+
+#[test]
+fn invalid_input_is_an_error() {
+    let pts = vec![Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 0.0, 0.0)];
+    let nan = vec![Point3::new(0.0, 0.0, f64::INFINITY)];
+    let a = vec![Association::new(0, 0)];
+    let inv = distance(0.1, 0.1);
+    assert!(matches!(
+        ConsistencyGraph::build(&nan, &pts, &a, &inv),
+        Err(ClipperError::NonFinitePoint { .. })
+    ));
+    assert!(matches!(
+        ConsistencyGraph::build(&pts, &pts, &[Association::new(2, 0)], &inv),
+        Err(ClipperError::IndexOutOfRange { .. })
+    ));
+    assert!(matches!(
+        ConsistencyGraph::build(&pts, &pts, &a, &distance(-1.0, 0.1)),
+        Err(ClipperError::InvalidParameter { .. })
+    ));
+    assert!(matches!(
+        ConsistencyGraph::build(&pts, &pts, &[a[0], a[0]], &inv),
+        Err(ClipperError::DuplicateAssociation { .. })
+    ));
+    // empty inputs are fine
+    let g = ConsistencyGraph::build(&[], &[], &[], &inv).unwrap();
+    assert_eq!(g.num_vertices(), 0);
+}
+
+#[test]
+fn auto_strategy_choice() {
+    let all = problem(71, Mode::All, 0.05, false, 16);
+    let inv = distance(0.3, 0.1);
+    assert_eq!(
+        choose_strategy(&all.prior, &all.query, &all.associations, &inv).unwrap(),
+        BuildStrategy::Join
+    );
+    let sparse = problem(
+        500,
+        Mode::Random {
+            n_assoc: 5000,
+            outliers: 0.9,
+        },
+        0.05,
+        false,
+        17,
+    );
+    assert_eq!(
+        choose_strategy(&sparse.prior, &sparse.query, &sparse.associations, &inv).unwrap(),
+        BuildStrategy::PairwiseScan
+    );
+}

@@ -1,0 +1,194 @@
+use super::*;
+use crate::rng::SplitMix64;
+use crate::testutil::{precision_recall, problem, Mode};
+use crate::{max_clique, Invariant, MaxCliqueLimits};
+
+fn clique_edges(vs: &[u32], w: f64) -> Vec<(u32, u32, f64)> {
+    let mut e = Vec::new();
+    for (a, &u) in vs.iter().enumerate() {
+        for &v in &vs[a + 1..] {
+            e.push((u, v, w));
+        }
+    }
+    e
+}
+
+#[test]
+fn empty_graph() {
+    let g = ConsistencyGraph::from_edges(0, &[]).unwrap();
+    let s = densest_clique(&g, &DensestCliqueConfig::default());
+    assert!(s.vertices.is_empty());
+    assert!(s.certified_maximum);
+}
+
+#[test]
+fn hand_made_graph_with_overlapping_cliques() {
+    // K6 {0..5}, K5 {5..9} sharing vertex 5, plus noise edges
+    let mut e = clique_edges(&[0, 1, 2, 3, 4, 5], 0.8);
+    e.extend(clique_edges(&[6, 7, 8, 9], 1.0));
+    e.extend([(5, 6, 1.0), (5, 7, 1.0), (5, 8, 1.0), (5, 9, 1.0)]);
+    e.extend([(9, 10, 1.0), (10, 11, 1.0), (0, 11, 1.0)]);
+    let g = ConsistencyGraph::from_edges(12, &e).unwrap();
+    for prune in [true, false] {
+        let cfg = DensestCliqueConfig {
+            prune_by_core: prune,
+            ..Default::default()
+        };
+        let s = densest_clique(&g, &cfg);
+        assert!(g.is_clique(&s.vertices));
+        if prune {
+            // certified by the bounds
+            assert_eq!(s.vertices, vec![0, 1, 2, 3, 4, 5]);
+            assert!(s.certified_maximum);
+        } else {
+            // the plain relaxation is local: either clique is a maximal dense one
+            assert!(s.vertices.len() >= 5, "{:?}", s.vertices);
+        }
+    }
+}
+
+#[test]
+fn weights_break_size_ties() {
+    // two disjoint K4, the second heavier, not certified by size alone
+    let mut e = clique_edges(&[0, 1, 2, 3], 0.5);
+    e.extend(clique_edges(&[4, 5, 6, 7], 0.9));
+    // tie the components together so the graph is connected
+    e.push((3, 4, 1.0));
+    let g = ConsistencyGraph::from_edges(8, &e).unwrap();
+    let s = densest_clique(&g, &DensestCliqueConfig::default());
+    assert_eq!(s.vertices.len(), 4);
+    assert!(s.certified_maximum);
+    let s2 = densest_clique(
+        &g,
+        &DensestCliqueConfig {
+            prune_by_core: false,
+            ..Default::default()
+        },
+    );
+    assert_eq!(s2.vertices, vec![4, 5, 6, 7]);
+}
+
+/// A random graph with a planted clique; the planted clique is the maximum w.h.p.
+fn planted(n: usize, p: f64, k: usize, seed: u64) -> (ConsistencyGraph, Vec<u32>) {
+    let mut rng = SplitMix64::new(seed);
+    let mut planted: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        planted.swap(i, rng.below(i + 1));
+    }
+    planted.truncate(k);
+    planted.sort_unstable();
+    let mut is_p = vec![false; n];
+    for &v in &planted {
+        is_p[v as usize] = true;
+    }
+    let mut e = Vec::new();
+    for u in 0..n as u32 {
+        for v in u + 1..n as u32 {
+            let w = 0.5 + 0.5 * rng.next_open01();
+            if (is_p[u as usize] && is_p[v as usize]) || rng.next_open01() < p {
+                e.push((u, v, w));
+            }
+        }
+    }
+    (ConsistencyGraph::from_edges(n, &e).unwrap(), planted)
+}
+
+#[test]
+fn densest_matches_max_clique_size_on_moderate_graphs() {
+    for seed in 0..6 {
+        let (g, planted) = planted(300, 0.1, 14, seed);
+        let exact = max_clique(&g, &MaxCliqueLimits::default()).unwrap();
+        let s = densest_clique(
+            &g,
+            &DensestCliqueConfig {
+                seed,
+                ..Default::default()
+            },
+        );
+        assert!(g.is_clique(&s.vertices));
+        assert_eq!(s.vertices.len(), exact.vertices.len(), "seed {seed}");
+        assert_eq!(exact.vertices, planted);
+        assert!(s.upper_bound >= exact.vertices.len());
+    }
+}
+
+#[test]
+fn relaxation_runs_when_not_certified() {
+    // dense random part whose core bound exceeds the planted clique: optimiser needed
+    let (g, planted) = planted(200, 0.3, 16, 42);
+    let s = densest_clique(&g, &DensestCliqueConfig::default());
+    assert_eq!(s.vertices, planted);
+    assert!(s.outer_iterations > 0 || s.certified_maximum);
+}
+
+#[test]
+fn deterministic_for_a_seed() {
+    let (g, _) = planted(400, 0.2, 12, 7);
+    let cfg = DensestCliqueConfig {
+        seed: 99,
+        ..Default::default()
+    };
+    let a = densest_clique(&g, &cfg);
+    let b = densest_clique(&g, &cfg);
+    assert_eq!(a, b);
+}
+
+#[test]
+fn disconnected_components_do_not_depend_on_the_start() {
+    // three disjoint cliques of sizes 5, 9, 7 with random weights
+    let mut e = clique_edges(&[0, 1, 2, 3, 4], 1.0);
+    e.extend(clique_edges(&(5..14).collect::<Vec<_>>(), 0.7));
+    e.extend(clique_edges(&(14..21).collect::<Vec<_>>(), 1.0));
+    let g = ConsistencyGraph::from_edges(21, &e).unwrap();
+    for seed in 0..20 {
+        let s = densest_clique(
+            &g,
+            &DensestCliqueConfig {
+                seed,
+                prune_by_core: true,
+                ..Default::default()
+            },
+        );
+        assert_eq!(s.vertices, (5..14).collect::<Vec<_>>(), "seed {seed}");
+    }
+}
+
+#[test]
+fn recovers_inliers_in_random_geometric_problems() {
+    let inv = Invariant::Distance {
+        epsilon: 0.3,
+        sigma: 0.1,
+    };
+    for seed in 0..4 {
+        let p = problem(
+            100,
+            Mode::Random {
+                n_assoc: 1000,
+                outliers: 0.9,
+            },
+            0.05,
+            false,
+            100 + seed,
+        );
+        let g = ConsistencyGraph::build(&p.prior, &p.query, &p.associations, &inv).unwrap();
+        let s = densest_clique(&g, &DensestCliqueConfig::default());
+        let (precision, recall) = precision_recall(&s.vertices, &p.truth);
+        assert!(precision >= 0.99, "seed {seed}: precision {precision}");
+        assert!(recall >= 0.95, "seed {seed}: recall {recall}");
+    }
+    // all-to-all, gravity aligned
+    let inv4 = Invariant::GravityAligned {
+        epsilon: 0.1,
+        sigma: 0.04,
+        epsilon_z: 0.1,
+        sigma_z: 0.04,
+    };
+    for seed in 0..3 {
+        let p = problem(60, Mode::All, 0.02, true, 200 + seed);
+        let g = ConsistencyGraph::build(&p.prior, &p.query, &p.associations, &inv4).unwrap();
+        let s = densest_clique(&g, &DensestCliqueConfig::default());
+        let (precision, recall) = precision_recall(&s.vertices, &p.truth);
+        assert!(precision >= 0.99, "seed {seed}: precision {precision}");
+        assert!(recall >= 0.95, "seed {seed}: recall {recall}");
+    }
+}
