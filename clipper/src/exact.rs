@@ -2,7 +2,8 @@
 //! (Tomita's MCQ/MCS with San Segundo's bit-parallel colouring, BBMC).
 
 use crate::core::core_decomposition;
-use crate::greedy::{greedy_clique, greedy_colouring_bound};
+use crate::front::{greedy_front, k_core};
+use crate::greedy::greedy_colouring_bound;
 use crate::{ClipperError, CliqueSolution, ConsistencyGraph};
 
 /// Limits of [`max_clique`].
@@ -50,10 +51,9 @@ pub fn max_clique(
             ..CliqueSolution::default()
         });
     }
-    let cd = core_decomposition(graph);
-    let ub_core = cd.core.iter().copied().max().unwrap_or(0) as usize + 1;
-    let greedy = greedy_clique(graph, &cd.core, &cd.order, 0);
-    let lb = greedy.len();
+    let front = greedy_front(graph, 0);
+    let lb = front.clique.len();
+    let greedy = front.clique;
     let certified = |vertices: Vec<u32>, pruned: usize, nodes: u64| {
         let mut s = CliqueSolution::new(graph, vertices);
         s.certified_maximum = true;
@@ -62,11 +62,11 @@ pub fn max_clique(
         s.search_nodes = nodes;
         s
     };
-    if lb >= ub_core {
+    if front.certified {
         return Ok(certified(greedy, 0, 0));
     }
-    // Only a strictly larger clique can improve on the greedy one.
-    let keep: Vec<bool> = cd.core.iter().map(|&c| c as usize + 1 > lb).collect();
+    // Only a strictly larger clique can improve on the greedy one: search the lb-core.
+    let keep = k_core(graph, lb);
     let (sub, old_of_new) = graph.induced_subgraph(&keep);
     let pruned = n - sub.num_vertices();
     if sub.num_vertices() <= lb {

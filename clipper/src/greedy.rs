@@ -1,77 +1,6 @@
-//! Greedy clique heuristics and the greedy-colouring upper bound.
+//! Greedy clique extension and the greedy-colouring upper bound.
 
 use crate::ConsistencyGraph;
-
-/// Greedy lower bound: from each start vertex (highest core number first), grow a clique
-/// among its neighbours, taking candidates by decreasing core number (ties: larger degree,
-/// then lower index). Starts and candidates whose core number cannot beat the best clique so
-/// far are skipped. At most `max_starts` starts are tried (0: no limit). Returns a maximal
-/// clique (sorted).
-pub(crate) fn greedy_clique(
-    graph: &ConsistencyGraph,
-    core: &[u32],
-    order: &[u32],
-    max_starts: usize,
-) -> Vec<u32> {
-    let n = graph.num_vertices();
-    let mut best: Vec<u32> = Vec::new();
-    let mut stamp = vec![0u32; n];
-    let mut count = vec![0u32; n];
-    let mut cand: Vec<u32> = Vec::new();
-    let mut clique: Vec<u32> = Vec::new();
-    for (starts, &v) in order.iter().rev().enumerate() {
-        if (core[v as usize] as usize) < best.len() {
-            // core + 1 <= |best|: no strictly larger clique through v; later starts have
-            // no larger core number.
-            break;
-        }
-        if max_starts > 0 && starts >= max_starts {
-            break;
-        }
-        let current_stamp = starts as u32 + 1;
-        cand.clear();
-        cand.extend(
-            graph
-                .neighbors(v as usize)
-                .iter()
-                .copied()
-                .filter(|&u| core[u as usize] as usize >= best.len()),
-        );
-        if cand.len() < best.len() {
-            continue;
-        }
-        cand.sort_unstable_by(|&a, &b| {
-            core[b as usize]
-                .cmp(&core[a as usize])
-                .then(graph.degree(b as usize).cmp(&graph.degree(a as usize)))
-                .then(a.cmp(&b))
-        });
-        for &u in &cand {
-            stamp[u as usize] = current_stamp;
-            count[u as usize] = 0;
-        }
-        clique.clear();
-        clique.push(v);
-        for (idx, &u) in cand.iter().enumerate() {
-            // not enough candidates left to beat the best: stop this start
-            if clique.len() + (cand.len() - idx) <= best.len() {
-                break;
-            }
-            if count[u as usize] as usize == clique.len() - 1 {
-                clique.push(u);
-                for &w in graph.neighbors(u as usize) {
-                    if stamp[w as usize] == current_stamp {
-                        count[w as usize] += 1;
-                    }
-                }
-            }
-        }
-        if clique.len() > best.len() {
-            best.clone_from(&clique);
-        }
-    }
-    extend_to_maximal(graph, &best)
-}
 
 /// Greedily extends a clique to a maximal one: repeatedly adds the vertex adjacent to all
 /// members with the largest total edge weight to them (ties: lower index). An empty input
@@ -177,15 +106,11 @@ mod tests {
     }
 
     #[test]
-    fn finds_planted_clique() {
+    fn colouring_bounds_planted_clique() {
         let mut e = clique_edges(&[1, 4, 6, 8, 9]);
         e.extend([(0, 1), (2, 3), (3, 5), (5, 7), (0, 2), (7, 4)]);
         let g = graph(10, &e);
         let cd = core_decomposition(&g);
-        assert_eq!(
-            greedy_clique(&g, &cd.core, &cd.order, 0),
-            vec![1, 4, 6, 8, 9]
-        );
         let colours = greedy_colouring_bound(&g, &cd.order);
         assert_eq!(colours, 5);
     }

@@ -39,6 +39,7 @@ mod core;
 mod densest;
 mod error;
 mod exact;
+mod front;
 mod graph;
 mod greedy;
 mod relaxation;

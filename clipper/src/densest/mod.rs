@@ -2,7 +2,8 @@
 //! pruning) followed by the CLIPPER-class relaxation on what is left.
 
 use crate::core::core_decomposition;
-use crate::greedy::{extend_to_maximal, greedy_clique, greedy_colouring_bound};
+use crate::front::{greedy_front, k_core};
+use crate::greedy::{extend_to_maximal, greedy_colouring_bound};
 use crate::relaxation::relax;
 use crate::ConsistencyGraph;
 
@@ -120,11 +121,9 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
             ..CliqueSolution::default()
         };
     }
-    let cd = core_decomposition(graph);
-    let max_core = cd.core.iter().copied().max().unwrap_or(0) as usize;
-    let ub_core = max_core + 1;
-
     if !config.prune_by_core {
+        let cd = core_decomposition(graph);
+        let ub_core = cd.core.iter().copied().max().unwrap_or(0) as usize + 1;
         let out = relax(graph, config, config.seed);
         let clique = extend_to_maximal(graph, &support_clique(graph, &out.u));
         let mut s = CliqueSolution::new(graph, clique);
@@ -135,18 +134,21 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
         return s;
     }
 
-    let greedy = greedy_clique(graph, &cd.core, &cd.order, config.max_greedy_starts);
-    let lb = greedy.len();
-    let mut best = CliqueSolution::new(graph, greedy);
-    best.upper_bound = ub_core;
-    if lb >= ub_core {
+    let front = greedy_front(graph, config.max_greedy_starts);
+    let lb = front.clique.len();
+    let mut best = CliqueSolution::new(graph, front.clique);
+    if front.certified {
+        best.upper_bound = lb;
         best.certified_maximum = true;
         return best;
     }
-    let keep: Vec<bool> = cd.core.iter().map(|&c| c as usize + 1 >= lb).collect();
+    // Vertices that can lie in a clique of size >= lb: the (lb - 1)-core.
+    let keep = k_core(graph, lb.saturating_sub(1));
     let (sub, old_of_new) = graph.induced_subgraph(&keep);
     let pruned = n - sub.num_vertices();
     let sub_cd = core_decomposition(&sub);
+    // The maximum core lies inside the (lb - 1)-core, so this is the global max core + 1.
+    let ub_core = sub_cd.core.iter().copied().max().unwrap_or(0) as usize + 1;
     let ub = ub_core.min(greedy_colouring_bound(&sub, &sub_cd.order));
     best.upper_bound = ub;
     best.pruned_vertices = pruned;
