@@ -15,6 +15,7 @@
 use std::path::Path;
 
 use nalgebra::{Isometry3, Point3};
+use rayon::prelude::*;
 
 use crate::atomic::read_text;
 use crate::error::snippet;
@@ -129,16 +130,67 @@ pub fn parse_lunarloc_traverse(text: &str, source: &Path) -> Result<Traverse, Ma
             ))
         }
     }
-    let mut frames = Vec::with_capacity(text.len() / 64);
-    for (index, line) in lines {
-        let line_no = index + 1;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let frame = parse_row(line).map_err(|m| MapError::parse_at(source, line_no, m))?;
-        frames.push(frame);
+    // Rows are independent: parse large files in parallel chunks split at line ends.
+    // Float parsing dominates (17 traverses, 16 MB, ~700k numbers).
+    let body_start = text.find('\n').map_or(text.len(), |k| k + 1);
+    let body = &text[body_start..];
+    let chunks = split_at_lines(body, 2, PARALLEL_CHUNK_BYTES);
+    let parsed: Vec<Result<Vec<TraverseFrame>, MapError>> = chunks
+        .par_iter()
+        .map(|&(first_line, chunk)| parse_rows(chunk, first_line, source))
+        .collect();
+    let mut frames = Vec::with_capacity(body.len() / 60);
+    for part in parsed {
+        frames.extend(part?);
     }
     Ok(Traverse { name, frames })
+}
+
+/// Chunk size above which rows are parsed in parallel.
+const PARALLEL_CHUNK_BYTES: usize = 256 * 1024;
+
+/// Parse the data rows of `chunk`, whose first line is line `first_line` of the file.
+fn parse_rows(
+    chunk: &str,
+    first_line: usize,
+    source: &Path,
+) -> Result<Vec<TraverseFrame>, MapError> {
+    let mut frames = Vec::with_capacity(chunk.len() / 60);
+    for (k, line) in chunk.lines().enumerate() {
+        if fast_trim(line).is_empty() {
+            continue;
+        }
+        let frame = parse_row(line).map_err(|m| MapError::parse_at(source, first_line + k, m))?;
+        frames.push(frame);
+    }
+    Ok(frames)
+}
+
+/// Split `text` (whose first line is line `first_line`) into pieces of about `chunk_bytes`
+/// ending at line ends, each with the number of its first line.
+pub(crate) fn split_at_lines(
+    text: &str,
+    first_line: usize,
+    chunk_bytes: usize,
+) -> Vec<(usize, &str)> {
+    let mut out = Vec::with_capacity(text.len() / chunk_bytes.max(1) + 1);
+    let mut rest = text;
+    let mut line = first_line;
+    while !rest.is_empty() {
+        let cut = if rest.len() <= chunk_bytes {
+            rest.len()
+        } else {
+            rest.as_bytes()[chunk_bytes..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(rest.len(), |k| chunk_bytes + k + 1)
+        };
+        let (piece, tail) = rest.split_at(cut);
+        out.push((line, piece));
+        line += piece.bytes().filter(|&b| b == b'\n').count();
+        rest = tail;
+    }
+    out
 }
 
 /// Whether a header line equals `expected`, ignoring spaces around names and a BOM.
@@ -156,30 +208,44 @@ pub(crate) fn header_matches(line: &str, expected: &str) -> bool {
 }
 
 fn parse_row(line: &str) -> Result<TraverseFrame, String> {
-    let mut fields = line.splitn(6, ',');
-    let mut next = |name: &str| {
-        fields.next().ok_or_else(|| {
-            format!("expected 6 fields ({TRAVERSE_HEADER}), the row ends before '{name}'")
-        })
+    // byte-level split at the first five commas (this is the hot path)
+    let bytes = line.as_bytes();
+    let mut comma = [0usize; 5];
+    let mut start = 0;
+    for (k, name) in ["x", "y", "z", "detections", "boulders"].iter().enumerate() {
+        match bytes[start..].iter().position(|&c| c == b',') {
+            Some(off) => comma[k] = start + off,
+            None => {
+                return Err(format!(
+                    "expected 6 fields ({TRAVERSE_HEADER}), the row ends before '{name}'"
+                ))
+            }
+        }
+        start = comma[k] + 1;
+    }
+    let field = |k: usize| {
+        let from = if k == 0 { 0 } else { comma[k - 1] + 1 };
+        let to = if k < 5 { comma[k] } else { line.len() };
+        &line[from..to]
     };
-    let frame_text = next("frame")?;
+    let frame_text = field(0);
     let frame: u64 = frame_text.trim().parse().map_err(|_| {
         format!(
             "frame: expected a non-negative integer, got '{}'",
             snippet(frame_text, 30)
         )
     })?;
-    let x = parse_finite(next("x")?, "x")?;
-    let y = parse_finite(next("y")?, "y")?;
-    let z = parse_finite(next("z")?, "z")?;
-    let count_text = next("detections")?;
+    let x = parse_finite(field(1), "x")?;
+    let y = parse_finite(field(2), "y")?;
+    let z = parse_finite(field(3), "z")?;
+    let count_text = field(4);
     let count: usize = count_text.trim().parse().map_err(|_| {
         format!(
             "detections: expected a non-negative integer, got '{}'",
             snippet(count_text, 30)
         )
     })?;
-    let raw = next("boulders")?.trim();
+    let raw = field(5).trim();
     let list = if let Some(inner) = raw.strip_prefix('"') {
         inner
             .strip_suffix('"')
@@ -204,7 +270,7 @@ fn parse_row(line: &str) -> Result<TraverseFrame, String> {
 }
 
 fn parse_finite(text: &str, name: &str) -> Result<f64, String> {
-    let t = text.trim();
+    let t = fast_trim(text);
     let v: f64 = t
         .parse()
         .map_err(|_| format!("{name}: expected a number, got '{}'", snippet(t, 30)))?;
@@ -212,6 +278,14 @@ fn parse_finite(text: &str, name: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("{name}: '{t}' is not a finite number"))
+    }
+}
+
+/// `str::trim`, skipping the work in the common case of no surrounding whitespace.
+fn fast_trim(t: &str) -> &str {
+    match (t.as_bytes().first(), t.as_bytes().last()) {
+        (Some(a), Some(b)) if !a.is_ascii_whitespace() && !b.is_ascii_whitespace() => t,
+        _ => t.trim(),
     }
 }
 
@@ -480,6 +554,37 @@ mod tests {
             err("a,b,c\n1,2,3\n").starts_with("dir/traverse_3.csv:1: expected the LunarLoc header")
         );
         assert!(err("").contains("the file is empty"));
+    }
+
+    #[test]
+    fn chunks_keep_line_numbers() {
+        let text = "a\nbb\nccc\n\nd";
+        let chunks = split_at_lines(text, 2, 3);
+        let joined: String = chunks.iter().map(|c| c.1).collect();
+        assert_eq!(joined, text);
+        for (line, piece) in &chunks {
+            let first = piece.lines().next().unwrap_or("");
+            let expect = text.lines().nth(line - 2).unwrap();
+            assert_eq!(first, expect);
+        }
+        assert!(split_at_lines("", 2, 3).is_empty());
+    }
+
+    #[test]
+    fn big_file_parses_in_parallel_and_reports_the_right_line() {
+        let mut text = String::from("frame,x,y,z,detections,boulders\n");
+        for k in 0..40_000 {
+            text.push_str(&format!("{k},1.5,2.5,3.5,1,\"[({k}.25, -1.0, 0.5)]\"\n"));
+        }
+        let t = parse(&text).unwrap();
+        assert_eq!(t.frames.len(), 40_000);
+        assert_eq!(t.frames[39_999].boulders[0].x, 39_999.25);
+        assert!(t.frames.windows(2).all(|w| w[0].frame + 1 == w[1].frame));
+        let bad = text.replace("\n31234,1.5,", "\n31234,nan,");
+        assert_eq!(
+            parse(&bad).unwrap_err().to_string(),
+            "dir/traverse_3.csv:31236: x: 'nan' is not a finite number"
+        );
     }
 
     #[test]
