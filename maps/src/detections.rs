@@ -312,7 +312,12 @@ fn parse_meta(comment: &str, set: &mut DetectionSet) -> Result<(), MetaError> {
                 snippet(v, 20)
             ))
         })?;
-        if v == 0 || v > u64::from(DETECTIONS_FORMAT_VERSION) {
+        if v == 0 {
+            return Err(MetaError::Other(
+                "version 0 does not exist; versions start at 1".to_string(),
+            ));
+        }
+        if v > u64::from(DETECTIONS_FORMAT_VERSION) {
             return Err(MetaError::Version(v));
         }
         return Ok(());
@@ -492,6 +497,18 @@ mod tests {
         assert!(
             e.to_string()
                 .contains("detections file d/dets.csv has format version 7"),
+            "{e}"
+        );
+        let e = parse("# segloc-detections version=0\n")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "d/dets.csv:1: version 0 does not exist; versions start at 1"
+        );
+        let e = parse("# segloc-detections\n").unwrap_err().to_string();
+        assert!(
+            e.contains("expected '# segloc-detections version=N'"),
             "{e}"
         );
         let e = parse("# gravity_aligned=maybe\n").unwrap_err().to_string();
