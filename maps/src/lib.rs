@@ -22,6 +22,7 @@ pub mod grid;
 pub mod landmark;
 pub mod map_file;
 pub mod object_map;
+pub mod point_list;
 pub mod traverse;
 
 pub use atomic::write_atomic;
@@ -39,7 +40,7 @@ pub use map_file::{
     map_from_str, map_to_string, read_map, write_map, MAP_FORMAT_NAME, MAP_FORMAT_VERSION,
 };
 pub use object_map::ObjectMap;
+pub use point_list::parse_point_list;
 pub use traverse::{
-    parse_lunarloc_traverse, parse_point_list, read_lunarloc_traverse, Traverse, TraverseFrame,
-    TRAVERSE_HEADER,
+    parse_lunarloc_traverse, read_lunarloc_traverse, Traverse, TraverseFrame, TRAVERSE_HEADER,
 };

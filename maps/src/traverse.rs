@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use crate::atomic::read_text;
 use crate::error::snippet;
+use crate::point_list::parse_point_list;
 use crate::{Detection, DetectionSet, MapError};
 
 /// The header line of a LunarLoc traverse CSV.
@@ -289,129 +290,6 @@ fn fast_trim(t: &str) -> &str {
     }
 }
 
-/// Parse a Python-style list of 3-tuples, `[(x, y, z), (x, y, z)]` or `[]`, appending the
-/// points to `out`. Errors say what was expected and quote the input where it went wrong.
-pub fn parse_point_list(text: &str, out: &mut Vec<Point3<f64>>) -> Result<(), String> {
-    let mut p = Cursor {
-        s: text.as_bytes(),
-        i: 0,
-        text,
-    };
-    p.ws();
-    if !p.eat(b'[') {
-        return Err(p.expected("a list starting with '['"));
-    }
-    p.ws();
-    if p.eat(b']') {
-        return p.end();
-    }
-    loop {
-        let close = if p.eat(b'(') {
-            b')'
-        } else if p.eat(b'[') {
-            b']'
-        } else {
-            return Err(p.expected("'(x, y, z)' tuples"));
-        };
-        let mut xyz = [0.0; 3];
-        for (k, v) in xyz.iter_mut().enumerate() {
-            p.ws();
-            *v = p.number(out.len())?;
-            p.ws();
-            if k < 2 && !p.eat(b',') {
-                return Err(p.expected("'(x, y, z)' tuples"));
-            }
-        }
-        if p.eat(b',') {
-            p.ws(); // tolerate a trailing comma inside the tuple
-        }
-        if !p.eat(close) {
-            return Err(p.expected("'(x, y, z)' tuples"));
-        }
-        out.push(Point3::new(xyz[0], xyz[1], xyz[2]));
-        p.ws();
-        if p.eat(b',') {
-            p.ws();
-            if p.eat(b']') {
-                return p.end();
-            }
-        } else if p.eat(b']') {
-            return p.end();
-        } else {
-            return Err(p.expected("',' or ']' after a tuple"));
-        }
-    }
-}
-
-struct Cursor<'a> {
-    s: &'a [u8],
-    i: usize,
-    text: &'a str,
-}
-
-impl Cursor<'_> {
-    fn ws(&mut self) {
-        while self.i < self.s.len() && self.s[self.i].is_ascii_whitespace() {
-            self.i += 1;
-        }
-    }
-
-    fn eat(&mut self, c: u8) -> bool {
-        if self.s.get(self.i) == Some(&c) {
-            self.i += 1;
-            true
-        } else {
-            false
-        }
-    }
-
-    fn rest(&self) -> &str {
-        // `i` only ever advances over ASCII bytes, so it is a char boundary
-        self.text.get(self.i..).unwrap_or("")
-    }
-
-    fn expected(&self, what: &str) -> String {
-        let rest = self.rest();
-        if rest.is_empty() {
-            format!("boulders: expected {what}, got the end of the field")
-        } else {
-            format!("boulders: expected {what}, got '{}'", snippet(rest, 40))
-        }
-    }
-
-    fn number(&mut self, index: usize) -> Result<f64, String> {
-        let start = self.i;
-        while self.i < self.s.len() && !matches!(self.s[self.i], b',' | b')' | b']' | b' ' | b'\t')
-        {
-            self.i += 1;
-        }
-        let tok = self.text.get(start..self.i).unwrap_or("");
-        let v: f64 = tok.parse().map_err(|_| {
-            self.i = start;
-            self.expected("'(x, y, z)' tuples of numbers")
-        })?;
-        if !v.is_finite() {
-            return Err(format!(
-                "boulders: tuple {} has a non-finite coordinate '{tok}'",
-                index + 1
-            ));
-        }
-        Ok(v)
-    }
-
-    fn end(&mut self) -> Result<(), String> {
-        self.ws();
-        if self.i == self.s.len() {
-            Ok(())
-        } else {
-            Err(format!(
-                "boulders: unexpected text after the list: '{}'",
-                snippet(self.rest(), 40)
-            ))
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -584,6 +462,20 @@ mod tests {
         assert_eq!(
             parse(&bad).unwrap_err().to_string(),
             "dir/traverse_3.csv:31236: x: 'nan' is not a finite number"
+        );
+    }
+
+    #[test]
+    fn truncated_file_names_last_line() {
+        let cut = &SAMPLE[..SAMPLE.len() - 30];
+        assert_eq!(
+            err(cut),
+            "dir/traverse_3.csv:3: boulders: unterminated quoted field"
+        );
+        let cut = &SAMPLE[..SAMPLE.find("120,-3.5185").unwrap() + 8];
+        assert_eq!(
+            err(cut),
+            "dir/traverse_3.csv:3: expected 6 fields (frame,x,y,z,detections,boulders), the row ends before 'y'"
         );
     }
 
