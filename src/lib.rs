@@ -1,1 +1,22 @@
+//! segloc: tells a lunar rover where it is by recognising boulders seen before.
+//!
+//! The engine composes two crates: `segloc_maps` (object maps and file formats) and
+//! `segloc_clipper` (consistency graphs and clique solvers). Its stages:
+//!
+//! - [`landmarks`]: a session's boulder detections fused into an object map;
+//! - [`relocalize`]: associations → consistency graph → cliques → alignment ([`align`]) →
+//!   verification → `prior_from_query` or a refusal;
+//! - [`eval`]: evaluation on the real LunarLoc traverses;
+//! - [`sim`]: generated boulder fields for tests and the demo.
+#![warn(missing_docs)]
 
+pub mod align;
+pub mod eval;
+pub mod io;
+pub mod landmarks;
+pub mod relocalize;
+pub mod sim;
+pub mod spatial;
+
+pub use segloc_clipper as clipper;
+pub use segloc_maps as maps;

@@ -1,0 +1,192 @@
+//! `segloc eval lunarloc|landmarks`.
+
+use super::print_json;
+use super::relocalize::parse_dof;
+use anyhow::{bail, Result};
+use clap::Subcommand;
+use segloc::align::Dof;
+use segloc::eval::landmark_quality::{match_map, match_rocks};
+use segloc::eval::lunarloc::{
+    all_pairs, evaluate, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
+};
+use segloc::eval::traverse_path;
+use segloc::landmarks::fuse_detections;
+use segloc::relocalize::RelocalizeConfig;
+use segloc_maps::{read_grid_csv, read_lunarloc_traverse};
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Evaluation commands.
+#[derive(Subcommand, Debug)]
+pub enum EvalCommand {
+    /// Relocalize pairs of LunarLoc traverses under random rigid transforms.
+    Lunarloc {
+        /// The data folder holding `lunarloc/traverse_N.csv`.
+        #[arg(long, default_value = "../shared/data")]
+        data: PathBuf,
+        /// Which pairs: the five of the LunarLoc paper, or all 136.
+        #[arg(long, default_value = "paper", value_parser = ["paper", "all"])]
+        pairs: String,
+        /// Random transforms per pair.
+        #[arg(long, default_value_t = 20)]
+        trials: usize,
+        /// Seed of the transforms.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Motion model.
+        #[arg(long, default_value = "4", value_parser = ["4", "6"])]
+        dof: String,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// How fused landmarks fall on the ground-truth rock cells, per traverse.
+    Landmarks {
+        /// The data folder holding `lunarloc/` and `lac-groundtruth/`.
+        #[arg(long, default_value = "../shared/data")]
+        data: PathBuf,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Run an evaluation.
+pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
+    match cmd {
+        EvalCommand::Lunarloc {
+            data,
+            pairs,
+            trials,
+            seed,
+            dof,
+            json,
+        } => {
+            if *trials == 0 {
+                bail!("--trials must be at least 1");
+            }
+            let dof = parse_dof(Some(dof)).unwrap_or(Dof::Four);
+            let mut config = config.clone();
+            config.dof = Some(dof);
+            let options = EvalOptions {
+                pairs: if pairs == "all" {
+                    all_pairs()
+                } else {
+                    PAPER_PAIRS.to_vec()
+                },
+                trials: *trials,
+                seed: *seed,
+                dof,
+            };
+            let bar = indicatif::ProgressBar::new(options.pairs.len() as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} pairs {elapsed}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            let report = evaluate(data, &options, &config, |done, _| {
+                bar.set_position(done as u64)
+            })?;
+            bar.finish_and_clear();
+            if *json {
+                print_json(&report)?;
+            } else {
+                print_table(&report);
+            }
+            Ok(0)
+        }
+        EvalCommand::Landmarks { data, json } => {
+            let grid = read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
+            let mut rows = Vec::new();
+            for n in 1..=TRAVERSES {
+                let traverse = read_lunarloc_traverse(&traverse_path(data, n))?;
+                let set = traverse.detections();
+                let map = fuse_detections(&set, &config.landmarks);
+                let raw = match_rocks(&set.positions(), &grid);
+                let fused = match_map(&map, &grid);
+                rows.push(json!({"traverse": n, "detections": raw, "landmarks": fused, "landmark_count": map.len()}));
+                if !*json {
+                    println!(
+                        "traverse {n:>2}: {:>5} detections ({:>4.1}% on rock, {:>4.1}% on/beside) -> {:>4} landmarks ({:>4.1}% on rock, {:>4.1}% on/beside)",
+                        raw.points, 100.0 * raw.on_rock, 100.0 * raw.near_rock,
+                        fused.points, 100.0 * fused.on_rock, 100.0 * fused.near_rock
+                    );
+                }
+            }
+            if *json {
+                print_json(&json!({"traverses": rows, "config": config.landmarks}))?;
+            }
+            Ok(0)
+        }
+    }
+}
+
+fn print_table(report: &EvalReport) {
+    println!(
+        "{:>5} {:>5} {:>6} {:>6} {:>6} {:>8} {:>8} {:>6} {:>10} {:>10} {:>9}",
+        "prior",
+        "query",
+        "lm_p",
+        "lm_q",
+        "common",
+        "success",
+        "false+",
+        "inl",
+        "t_err_cm",
+        "r_err_deg",
+        "time_ms"
+    );
+    for p in &report.pairs {
+        let t_err: Vec<f64> = p
+            .trials
+            .iter()
+            .filter(|t| t.correct)
+            .filter_map(|t| t.translation_error_m)
+            .collect();
+        let r_err: Vec<f64> = p
+            .trials
+            .iter()
+            .filter(|t| t.correct)
+            .filter_map(|t| t.rotation_error_deg)
+            .collect();
+        let mean = |v: &[f64]| {
+            if v.is_empty() {
+                f64::NAN
+            } else {
+                v.iter().sum::<f64>() / v.len() as f64
+            }
+        };
+        let inl =
+            p.trials.iter().map(|t| t.inliers).sum::<usize>() as f64 / p.trials.len().max(1) as f64;
+        let time = p.trials.iter().map(|t| t.time_ms).sum::<f64>() / p.trials.len().max(1) as f64;
+        println!(
+            "{:>5} {:>5} {:>6} {:>6} {:>6} {:>5}/{:<2} {:>8} {:>6.1} {:>10.3} {:>10.4} {:>9.1}",
+            p.prior,
+            p.query,
+            p.prior_landmarks,
+            p.query_landmarks,
+            p.true_common,
+            p.successes,
+            p.trials.len(),
+            p.false_accepts,
+            inl,
+            100.0 * mean(&t_err),
+            mean(&r_err),
+            time
+        );
+    }
+    let t = &report.totals;
+    println!(
+        "success {}/{} ({:.1}%), false accepts {}, pairs with >= 8 common: {}/{}",
+        t.successes,
+        t.trials,
+        100.0 * t.success_rate,
+        t.false_accepts,
+        t.successes_with_8_common,
+        t.trials_with_8_common
+    );
+    println!(
+        "translation error cm: mean {:.3} median {:.3} max {:.3}; rotation error deg: mean {:.4} max {:.4}; time ms: mean {:.1} max {:.1}",
+        100.0 * t.translation_error_m.mean, 100.0 * t.translation_error_m.median, 100.0 * t.translation_error_m.max,
+        t.rotation_error_deg.mean, t.rotation_error_deg.max, t.time_ms.mean, t.time_ms.max
+    );
+}

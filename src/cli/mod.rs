@@ -1,0 +1,76 @@
+//! Subcommands of the `segloc` binary, one file each.
+
+mod bench;
+mod config;
+mod demo;
+mod eval;
+mod map;
+mod relocalize;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use segloc::relocalize::RelocalizeConfig;
+use std::path::{Path, PathBuf};
+
+/// segloc: relocalize a lunar rover from the boulders it has seen before.
+#[derive(Parser, Debug)]
+#[command(name = "segloc", version, about, propagate_version = true)]
+pub struct Cli {
+    /// Configuration file (TOML, as printed by `segloc config print`); defaults otherwise.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// The subcommand.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// The main job on built-in data: a generated two-session boulder field, relocalized
+    /// end to end.
+    Demo(demo::DemoArgs),
+    /// Find `prior_from_query` between two maps (map files or detection / traverse CSVs).
+    Relocalize(relocalize::RelocalizeArgs),
+    /// Build and inspect object maps.
+    #[command(subcommand)]
+    Map(map::MapCommand),
+    /// Evaluate on real data.
+    #[command(subcommand)]
+    Eval(eval::EvalCommand),
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+    /// Print or check the configuration.
+    #[command(subcommand)]
+    Config(config::ConfigCommand),
+}
+
+/// Run a parsed command line; returns the exit code.
+pub fn run(cli: Cli) -> Result<i32> {
+    let config = load_config(cli.config.as_deref())?;
+    match cli.command {
+        Command::Demo(args) => demo::run(&args, &config),
+        Command::Relocalize(args) => relocalize::run(&args, &config),
+        Command::Map(cmd) => map::run(&cmd, &config),
+        Command::Eval(cmd) => eval::run(&cmd, &config),
+        Command::Bench(cmd) => bench::run(&cmd, &config),
+        Command::Config(cmd) => config::run(&cmd, &config),
+    }
+}
+
+/// The configuration from `path`, or the defaults.
+pub fn load_config(path: Option<&Path>) -> Result<RelocalizeConfig> {
+    let Some(path) = path else {
+        return Ok(RelocalizeConfig::default());
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read config file {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("config file {}", path.display()))
+}
+
+/// Print `value` as one line of JSON on stdout.
+pub fn print_json(value: &impl serde::Serialize) -> Result<()> {
+    println!("{}", serde_json::to_string(value)?);
+    Ok(())
+}

@@ -1,0 +1,140 @@
+//! `segloc relocalize --prior A --query B [--dof 4|6] [--json]`.
+
+use super::print_json;
+use anyhow::{Context, Result};
+use clap::Args;
+use segloc::align::Dof;
+use segloc::io::load_map;
+use segloc::relocalize::{result::matrix_rows, Relocalization, RelocalizeConfig, Relocalizer};
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `segloc relocalize`.
+#[derive(Args, Debug)]
+pub struct RelocalizeArgs {
+    /// The prior session: a map file, a detections CSV or a LunarLoc traverse CSV.
+    #[arg(long)]
+    pub prior: PathBuf,
+    /// The query session, same kinds of file.
+    #[arg(long)]
+    pub query: PathBuf,
+    /// Motion model: 4 (yaw + translation, gravity-aligned maps) or 6 (full rigid motion).
+    /// Default: 4 when both maps are gravity-aligned, else 6.
+    #[arg(long, value_parser = ["4", "6"])]
+    pub dof: Option<String>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Parse a `--dof` value.
+pub fn parse_dof(dof: Option<&str>) -> Option<Dof> {
+    match dof {
+        Some("4") => Some(Dof::Four),
+        Some("6") => Some(Dof::Six),
+        _ => None,
+    }
+}
+
+/// Run it: 0 accepted, 1 refused, 2 bad input.
+pub fn run(args: &RelocalizeArgs, config: &RelocalizeConfig) -> Result<i32> {
+    let started = Instant::now();
+    let mut config = config.clone();
+    if let Some(dof) = parse_dof(args.dof.as_deref()) {
+        config.dof = Some(dof);
+    }
+    let (prior, _) = load_map(&args.prior, &config.landmarks)?;
+    let (query, _) = load_map(&args.query, &config.landmarks)?;
+    let answer = Relocalizer::new(prior, config.clone())
+        .and_then(|r| r.relocalize(&query))
+        .with_context(|| {
+            format!(
+                "relocalizing {} against {}",
+                args.query.display(),
+                args.prior.display()
+            )
+        })?;
+    let time_ms = started.elapsed().as_secs_f64() * 1e3;
+    if args.json {
+        print_json(&report(&answer, &config, time_ms))?;
+    } else {
+        print_summary(&answer, time_ms);
+    }
+    Ok(if answer.is_accepted() { 0 } else { 1 })
+}
+
+/// The JSON report of one relocalization.
+pub fn report(
+    answer: &Relocalization,
+    config: &RelocalizeConfig,
+    time_ms: f64,
+) -> serde_json::Value {
+    let d = &answer.diagnostics;
+    let mut out = json!({
+        "status": if answer.is_accepted() { "ok" } else { "no_match" },
+        "inliers": answer.inliers.len(),
+        "rmse_m": finite_or_null(answer.rmse_m),
+        "landmarks": {"prior": d.prior_landmarks, "query": d.query_landmarks},
+        "associations": d.associations,
+        "graph_edges": d.graph_edges,
+        "dof": d.dof,
+        "time_ms": time_ms,
+        "timings_ms": d.timings,
+        "hypotheses": d.hypotheses,
+        "config": config,
+    });
+    if let Some(t) = &answer.prior_from_query {
+        out["prior_from_query"] = json!(matrix_rows(t));
+        out["information"] = json!((0..6)
+            .map(|r| (0..6)
+                .map(|c| answer.information[(r, c)])
+                .collect::<Vec<_>>())
+            .collect::<Vec<_>>());
+        out["inlier_pairs"] = json!(answer.inliers);
+    }
+    if let Some(reason) = &answer.refusal {
+        out["reason"] = json!(reason.to_string());
+        out["refusal"] = json!(reason);
+    }
+    out
+}
+
+fn finite_or_null(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn print_summary(answer: &Relocalization, time_ms: f64) {
+    let d = &answer.diagnostics;
+    println!(
+        "landmarks: prior {}, query {}; {} associations, {} consistent pairs, {}-DOF",
+        d.prior_landmarks, d.query_landmarks, d.associations, d.graph_edges, d.dof
+    );
+    match (&answer.prior_from_query, &answer.refusal) {
+        (Some(t), _) => {
+            let yaw = segloc::align::yaw_only::yaw_of(t).to_degrees();
+            println!(
+                "ok: {} inliers, rmse {:.2} cm, yaw {:.3}°, translation ({:.3}, {:.3}, {:.3}) m",
+                answer.inliers.len(),
+                answer.rmse_m * 100.0,
+                yaw,
+                t.translation.x,
+                t.translation.y,
+                t.translation.z
+            );
+            for row in matrix_rows(t) {
+                println!(
+                    "  [{:>10.6} {:>10.6} {:>10.6} {:>10.4}]",
+                    row[0], row[1], row[2], row[3]
+                );
+            }
+        }
+        (None, Some(reason)) => println!("no match: {reason}"),
+        (None, None) => println!("no match"),
+    }
+    println!("time: {time_ms:.1} ms");
+}

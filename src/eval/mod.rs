@@ -1,0 +1,28 @@
+//! Evaluation on the real LunarLoc traverses (`../shared/data/lunarloc`).
+//!
+//! - [`lunarloc`]: relocalize pairs of traverses under random rigid transforms and compare
+//!   with the truth (all traverses share one world frame);
+//! - [`landmark_quality`]: how well fused landmarks land on the ground-truth rock cells;
+//! - [`transform_error`]: the error measures.
+
+pub mod landmark_quality;
+pub mod lunarloc;
+
+use nalgebra::Isometry3;
+
+/// Translation error (m) and rotation error (degrees) of an estimate against the truth,
+/// both `prior_from_query`: the error transform `estimate · truth⁻¹` acts in the prior
+/// frame, so the translation error is how far the estimate moves the prior frame's origin
+/// (on the LunarLoc data: the lander, within about 15 m of every boulder).
+pub fn transform_error(estimate: &Isometry3<f64>, truth: &Isometry3<f64>) -> (f64, f64) {
+    let error = estimate * truth.inverse();
+    (
+        error.translation.vector.norm(),
+        error.rotation.angle().to_degrees(),
+    )
+}
+
+/// Path of traverse `n` under a data directory.
+pub fn traverse_path(data: &std::path::Path, n: usize) -> std::path::PathBuf {
+    data.join("lunarloc").join(format!("traverse_{n}.csv"))
+}

@@ -1,0 +1,134 @@
+//! The relocalizer's configuration: one struct per stage, all with documented defaults.
+//!
+//! The whole configuration prints and loads as TOML (`segloc config print`,
+//! `--config FILE`), and every report records the configuration it ran with.
+
+use crate::align::{Dof, RefineConfig};
+use crate::landmarks::FusionConfig;
+use serde::{Deserialize, Serialize};
+
+/// Every stage's parameters.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RelocalizeConfig {
+    /// Motion model: `"4"` (yaw + translation) or `"6"` (full rigid motion). Unset: 4 when
+    /// both maps are gravity-aligned, else 6.
+    pub dof: Option<Dof>,
+    /// Detections → landmarks (used when an input is a detection file or a traverse).
+    pub landmarks: FusionConfig,
+    /// Landmarks → candidate associations.
+    pub associations: AssociationConfig,
+    /// Associations → consistency graph.
+    pub consistency: ConsistencyConfig,
+    /// Consistency graph → cliques (hypotheses).
+    pub clique: CliqueConfig,
+    /// Clique → refined alignment over all landmarks.
+    pub refine: RefineConfig,
+    /// Hypotheses → accept or refuse.
+    pub verification: VerificationConfig,
+}
+
+/// Parameters of the candidate-association stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AssociationConfig {
+    /// When both landmarks have a size, associate them only if the larger is at most this
+    /// many times the smaller. Sizes unknown: every pair is a candidate (all-to-all).
+    pub max_size_ratio: f64,
+}
+
+impl Default for AssociationConfig {
+    fn default() -> Self {
+        Self {
+            max_size_ratio: 2.0,
+        }
+    }
+}
+
+/// Parameters of the consistency graph (the rigid-motion invariant).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ConsistencyConfig {
+    /// Largest difference (m) of the pairwise distance (6-DOF) or horizontal distance
+    /// (4-DOF) for two associations to be consistent.
+    pub epsilon_m: f64,
+    /// Scale (m) of the Gaussian edge weight exp(−c²/2σ²).
+    pub sigma_m: f64,
+    /// 4-DOF only: largest difference (m) of the height difference.
+    pub epsilon_z_m: f64,
+    /// 4-DOF only: scale (m) of the height term of the weight.
+    pub sigma_z_m: f64,
+}
+
+impl Default for ConsistencyConfig {
+    fn default() -> Self {
+        Self {
+            epsilon_m: 0.08,
+            sigma_m: 0.04,
+            epsilon_z_m: 0.06,
+            sigma_z_m: 0.03,
+        }
+    }
+}
+
+/// Parameters of the clique stage (hypothesis generation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CliqueConfig {
+    /// Seed of the relaxation's random start (results are reproducible).
+    pub seed: u64,
+    /// Number of hypotheses to extract: after each clique, the associations consistent
+    /// with its transform are removed and the graph solved again.
+    pub hypotheses: usize,
+    /// Cliques smaller than this are not worth a hypothesis.
+    pub min_clique: usize,
+    /// Use the exact maximum-clique solver when the pruned graph is at most this large
+    /// (vertices); 0 disables it.
+    pub exact_max_vertices: usize,
+}
+
+impl Default for CliqueConfig {
+    fn default() -> Self {
+        Self {
+            seed: 7,
+            hypotheses: 4,
+            min_clique: 4,
+            exact_max_vertices: 3000,
+        }
+    }
+}
+
+/// Parameters of the acceptance test. A wrong transform accepted is the worst failure:
+/// every test must pass.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct VerificationConfig {
+    /// Fewest refined inliers (landmark pairs within the inlier threshold).
+    pub min_inliers: usize,
+    /// Largest root-mean-square residual (m) over the inliers.
+    pub max_rmse_m: f64,
+    /// Smallest standard deviation (m) of the inliers' positions along their minor
+    /// horizontal axis: collinear or clustered inliers do not fix a yaw.
+    pub min_spread_m: f64,
+    /// The runner-up hypothesis (a transform that differs from the best) may have at most
+    /// this fraction of the best one's inliers.
+    pub max_runner_up_ratio: f64,
+    /// ... and at least this many fewer inliers.
+    pub min_runner_up_margin: usize,
+    /// Two hypotheses whose transforms differ by less than this (m, at the inliers) are
+    /// the same hypothesis.
+    pub same_hypothesis_m: f64,
+}
+
+impl Default for VerificationConfig {
+    fn default() -> Self {
+        Self {
+            min_inliers: 6,
+            max_rmse_m: 0.03,
+            min_spread_m: 0.3,
+            max_runner_up_ratio: 0.6,
+            min_runner_up_margin: 3,
+            same_hypothesis_m: 0.25,
+        }
+    }
+}

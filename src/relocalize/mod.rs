@@ -1,0 +1,200 @@
+//! Relocalization: the rigid transform between a query map and a prior map of boulders,
+//! or an explicit refusal.
+//!
+//! The stages, each in its own module:
+//! landmarks ([`PreparedMap`]) → candidate associations ([`associations`]) → consistency
+//! graph ([`consistency`], built by `segloc_clipper`) → cliques as hypotheses, each aligned
+//! and refined ([`hypotheses`]) → acceptance ([`verify`]) → [`Relocalization`].
+//!
+//! ```
+//! use segloc::relocalize::{Relocalizer, RelocalizeConfig};
+//! use segloc::sim::boulder_field::{two_sessions, FieldConfig};
+//! let (prior, query, truth) = two_sessions(&FieldConfig::default(), 3);
+//! let relocalizer = Relocalizer::new(prior, RelocalizeConfig::default()).unwrap();
+//! let answer = relocalizer.relocalize(&query).unwrap();
+//! let estimate = answer.prior_from_query.expect("accepted");
+//! assert!((estimate.translation.vector - truth.translation.vector).norm() < 0.05);
+//! ```
+
+pub mod associations;
+pub mod config;
+pub mod consistency;
+pub mod hypotheses;
+pub mod prepared;
+pub mod result;
+pub mod verify;
+
+pub use config::{
+    AssociationConfig, CliqueConfig, ConsistencyConfig, RelocalizeConfig, VerificationConfig,
+};
+pub use prepared::{PreparedMap, MIN_LANDMARKS};
+pub use result::{Diagnostics, Hypothesis, Refusal, Relocalization, Timings};
+
+use crate::align::{information_matrix, Dof};
+use nalgebra::Matrix6;
+use segloc_clipper::{ClipperError, ConsistencyGraph};
+use segloc_maps::{MapError, ObjectMap};
+use std::time::Instant;
+
+/// Why a relocalization could not even be attempted (bad input, not a refusal).
+#[derive(Debug, thiserror::Error)]
+pub enum RelocalizeError {
+    /// A map failed validation.
+    #[error("{role} map is invalid: {source}")]
+    InvalidMap {
+        /// "prior" or "query".
+        role: &'static str,
+        /// What is wrong.
+        source: MapError,
+    },
+    /// A map has too few landmarks to fix a transform.
+    #[error("{role} map has {count} landmarks; relocalization needs at least {required}")]
+    TooFewLandmarks {
+        /// "prior" or "query".
+        role: &'static str,
+        /// Landmarks in the map.
+        count: usize,
+        /// The minimum.
+        required: usize,
+    },
+    /// 4-DOF was asked for but a map is not gravity-aligned.
+    #[error("--dof 4 needs gravity-aligned maps, but the {role} map is not (use --dof 6)")]
+    NotGravityAligned {
+        /// "prior" or "query".
+        role: &'static str,
+    },
+    /// The association solver rejected its input.
+    #[error("association failed: {0}")]
+    Association(#[from] ClipperError),
+}
+
+/// Relocalize `query` against `prior` once. To relocalize many queries against one prior,
+/// build a [`Relocalizer`] once instead.
+pub fn relocalize(
+    prior: &ObjectMap,
+    query: &ObjectMap,
+    config: &RelocalizeConfig,
+) -> Result<Relocalization, RelocalizeError> {
+    Relocalizer::new(prior.clone(), config.clone())?.relocalize(query)
+}
+
+/// A prior map prepared once, relocalized against many times (e.g. from a SLAM system's
+/// loop closure).
+#[derive(Clone, Debug)]
+pub struct Relocalizer {
+    prior: PreparedMap,
+    config: RelocalizeConfig,
+}
+
+impl Relocalizer {
+    /// Prepare `prior` for relocalization with `config`.
+    pub fn new(prior: ObjectMap, config: RelocalizeConfig) -> Result<Self, RelocalizeError> {
+        Ok(Self {
+            prior: PreparedMap::new(&prior, "prior")?,
+            config,
+        })
+    }
+
+    /// The configuration this relocalizer runs with.
+    pub fn config(&self) -> &RelocalizeConfig {
+        &self.config
+    }
+
+    /// Find `prior_from_query` for `query`, or refuse with the reason.
+    pub fn relocalize(&self, query: &ObjectMap) -> Result<Relocalization, RelocalizeError> {
+        let started = Instant::now();
+        let config = &self.config;
+        let (prior, query) = (&self.prior, PreparedMap::new(query, "query")?);
+        let dof = self.motion_model(&query)?;
+        let mut timings = Timings::default();
+
+        // Landmarks → candidate associations.
+        let t = Instant::now();
+        let associations =
+            associations::candidate_associations(prior, &query, &config.associations);
+        timings.associations_ms = ms_since(t);
+
+        // Associations → consistency graph.
+        let t = Instant::now();
+        let invariant = consistency::invariant(dof, &config.consistency);
+        let graph =
+            ConsistencyGraph::build(&prior.points, &query.points, &associations, &invariant)?;
+        timings.graph_ms = ms_since(t);
+
+        // Graph → cliques → aligned and refined hypotheses.
+        let found =
+            hypotheses::generate_hypotheses(&graph, &associations, prior, &query, dof, config);
+        timings.clique_ms = found.clique_ms;
+        timings.alignment_ms = found.alignment_ms;
+        let mut hypotheses = found.hypotheses;
+
+        // Hypotheses → verification.
+        let decision = if hypotheses.is_empty() {
+            Err(Refusal::NoHypothesis {
+                largest_clique: found.largest_clique,
+                required: config.clique.min_clique,
+            })
+        } else {
+            verify::decide(&mut hypotheses, &config.verification)
+        };
+
+        // Result, with the information matrix of the accepted transform.
+        let best = hypotheses.first();
+        let (prior_from_query, information, inliers) = match (&decision, best) {
+            (Ok(()), Some(best)) => {
+                let pairs: Vec<_> = best
+                    .inliers
+                    .iter()
+                    .map(|&(i, j)| {
+                        let a = segloc_clipper::Association { prior: i, query: j };
+                        hypotheses::pair_of(&a, prior, &query)
+                    })
+                    .collect();
+                let ids = best
+                    .inliers
+                    .iter()
+                    .map(|&(i, j)| (prior.ids[i as usize], query.ids[j as usize]))
+                    .collect();
+                let info = information_matrix(&pairs, &best.prior_from_query);
+                (Some(best.prior_from_query), info, ids)
+            }
+            _ => (None, Matrix6::zeros(), Vec::new()),
+        };
+        timings.total_ms = ms_since(started);
+        Ok(Relocalization {
+            prior_from_query,
+            refusal: decision.err(),
+            inliers,
+            rmse_m: best.map_or(f64::NAN, |b| b.rmse_m),
+            information,
+            diagnostics: Diagnostics {
+                prior_landmarks: prior.len(),
+                query_landmarks: query.len(),
+                associations: associations.len(),
+                graph_edges: graph.num_edges(),
+                dof: dof.count(),
+                hypotheses,
+                timings,
+            },
+        })
+    }
+
+    /// The motion model: the configured one, else 4-DOF when both maps are gravity-aligned.
+    fn motion_model(&self, query: &PreparedMap) -> Result<Dof, RelocalizeError> {
+        match self.config.dof {
+            Some(Dof::Four) if !self.prior.gravity_aligned => {
+                Err(RelocalizeError::NotGravityAligned { role: "prior" })
+            }
+            Some(Dof::Four) if !query.gravity_aligned => {
+                Err(RelocalizeError::NotGravityAligned { role: "query" })
+            }
+            Some(dof) => Ok(dof),
+            None if self.prior.gravity_aligned && query.gravity_aligned => Ok(Dof::Four),
+            None => Ok(Dof::Six),
+        }
+    }
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,63 @@
+//! A map prepared for relocalization: positions, weights and ids in flat arrays.
+
+use super::RelocalizeError;
+use nalgebra::Point3;
+use segloc_maps::ObjectMap;
+
+/// The fewest landmarks a map needs to be relocalized against.
+pub const MIN_LANDMARKS: usize = 3;
+
+/// Flat arrays of one map's landmarks, built once per map.
+#[derive(Clone, Debug)]
+pub struct PreparedMap {
+    /// Landmark positions in the map's frame.
+    pub points: Vec<Point3<f64>>,
+    /// Landmark weights: inverse of the mean position variance (1/m²).
+    pub weights: Vec<f64>,
+    /// Landmark ids, in the same order.
+    pub ids: Vec<u32>,
+    /// Landmark sizes (m), when known.
+    pub sizes: Vec<Option<f64>>,
+    /// Whether the map is gravity-aligned.
+    pub gravity_aligned: bool,
+}
+
+impl PreparedMap {
+    /// Check and flatten `map`; `role` ("prior" or "query") names it in errors.
+    pub fn new(map: &ObjectMap, role: &'static str) -> Result<Self, RelocalizeError> {
+        map.validate()
+            .map_err(|source| RelocalizeError::InvalidMap { role, source })?;
+        if map.len() < MIN_LANDMARKS {
+            return Err(RelocalizeError::TooFewLandmarks {
+                role,
+                count: map.len(),
+                required: MIN_LANDMARKS,
+            });
+        }
+        let weights = map
+            .landmarks
+            .iter()
+            .map(|l| {
+                let variance = (l.covariance.trace() / 3.0).max(1e-8);
+                1.0 / variance
+            })
+            .collect();
+        Ok(Self {
+            points: map.positions(),
+            weights,
+            ids: map.landmarks.iter().map(|l| l.id).collect(),
+            sizes: map.landmarks.iter().map(|l| l.size_m).collect(),
+            gravity_aligned: map.gravity_aligned,
+        })
+    }
+
+    /// Number of landmarks.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the map has no landmarks (never true once prepared).
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}

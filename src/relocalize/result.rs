@@ -1,0 +1,196 @@
+//! What a relocalization returns: the transform with its evidence, or a refusal with its
+//! reason — always with the diagnostics.
+
+use nalgebra::{Isometry3, Matrix4, Matrix6};
+use serde::Serialize;
+
+/// Why a relocalization was refused.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Refusal {
+    /// The consistency graph held no clique large enough to be a hypothesis.
+    NoHypothesis {
+        /// Size of the largest clique found.
+        largest_clique: usize,
+        /// The smallest size that makes a hypothesis.
+        required: usize,
+    },
+    /// The best hypothesis has too few inliers.
+    TooFewInliers {
+        /// Inliers of the best hypothesis.
+        inliers: usize,
+        /// Required inliers.
+        required: usize,
+    },
+    /// The inliers' residuals are too large.
+    ResidualTooLarge {
+        /// Root-mean-square residual (m).
+        rmse_m: f64,
+        /// Largest accepted (m).
+        max_rmse_m: f64,
+    },
+    /// The inliers lie on a line or in a small patch: the yaw is not fixed.
+    DegenerateGeometry {
+        /// Standard deviation (m) along the inliers' minor horizontal axis.
+        spread_m: f64,
+        /// Smallest accepted (m).
+        min_spread_m: f64,
+    },
+    /// A different transform is supported almost as well.
+    Ambiguous {
+        /// Inliers of the best hypothesis.
+        best_inliers: usize,
+        /// Inliers of the runner-up.
+        runner_up_inliers: usize,
+    },
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refusal::NoHypothesis { largest_clique, required } => write!(
+                f,
+                "no consistent set of associations: largest clique {largest_clique}, need {required}"
+            ),
+            Refusal::TooFewInliers { inliers, required } => {
+                write!(f, "too few inliers: {inliers}, need {required}")
+            }
+            Refusal::ResidualTooLarge { rmse_m, max_rmse_m } => write!(
+                f,
+                "inlier residual too large: rmse {:.1} cm > {:.1} cm",
+                rmse_m * 100.0,
+                max_rmse_m * 100.0
+            ),
+            Refusal::DegenerateGeometry { spread_m, min_spread_m } => write!(
+                f,
+                "inliers collinear or clustered: minor-axis spread {:.2} m < {:.2} m",
+                spread_m, min_spread_m
+            ),
+            Refusal::Ambiguous { best_inliers, runner_up_inliers } => write!(
+                f,
+                "ambiguous: best hypothesis has {best_inliers} inliers, a different one has {runner_up_inliers}"
+            ),
+        }
+    }
+}
+
+/// One hypothesis: a clique's transform refined over all landmarks.
+#[derive(Clone, Debug, Serialize)]
+pub struct Hypothesis {
+    /// Associations in the clique.
+    pub clique_size: usize,
+    /// The refined transform, as a 4 × 4 row-major matrix.
+    #[serde(serialize_with = "serialize_isometry")]
+    pub prior_from_query: Isometry3<f64>,
+    /// Refined inliers: (prior landmark index, query landmark index).
+    #[serde(skip)]
+    pub inliers: Vec<(u32, u32)>,
+    /// Query-frame positions of the inliers (where two hypotheses are compared).
+    #[serde(skip)]
+    pub support_query: Vec<nalgebra::Point3<f64>>,
+    /// Number of refined inliers.
+    pub inlier_count: usize,
+    /// Root-mean-square residual (m) over the inliers.
+    pub rmse_m: f64,
+    /// Standard deviation (m) of the inliers along their minor horizontal axis.
+    pub spread_m: f64,
+}
+
+/// Timings of the stages, milliseconds.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timings {
+    /// Candidate associations.
+    pub associations_ms: f64,
+    /// Consistency graph build.
+    pub graph_ms: f64,
+    /// Clique solves (all hypotheses).
+    pub clique_ms: f64,
+    /// Alignment and refinement (all hypotheses).
+    pub alignment_ms: f64,
+    /// The whole relocalization.
+    pub total_ms: f64,
+}
+
+/// Everything measured on the way, accepted or not.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Diagnostics {
+    /// Landmarks in the prior map.
+    pub prior_landmarks: usize,
+    /// Landmarks in the query map.
+    pub query_landmarks: usize,
+    /// Candidate associations.
+    pub associations: usize,
+    /// Edges of the consistency graph.
+    pub graph_edges: usize,
+    /// Motion model used (4 or 6).
+    pub dof: u32,
+    /// Hypotheses examined, best first.
+    pub hypotheses: Vec<Hypothesis>,
+    /// Stage timings.
+    pub timings: Timings,
+}
+
+/// The answer of one relocalization.
+#[derive(Clone, Debug, Serialize)]
+pub struct Relocalization {
+    /// The accepted transform, or `None` when refused.
+    #[serde(serialize_with = "serialize_option_isometry")]
+    pub prior_from_query: Option<Isometry3<f64>>,
+    /// Why it was refused, when it was.
+    pub refusal: Option<Refusal>,
+    /// Inliers (prior landmark id, query landmark id) of the accepted transform.
+    pub inliers: Vec<(u32, u32)>,
+    /// Root-mean-square residual (m) over the inliers of the best hypothesis.
+    pub rmse_m: f64,
+    /// 6 × 6 information matrix of `prior_from_query` for the pose graph, tangent ordered
+    /// (rotation, translation), right perturbation (GTSAM's `Pose3` convention).
+    #[serde(serialize_with = "serialize_matrix6")]
+    pub information: Matrix6<f64>,
+    /// Diagnostics.
+    pub diagnostics: Diagnostics,
+}
+
+impl Relocalization {
+    /// Whether the transform was accepted.
+    pub fn is_accepted(&self) -> bool {
+        self.prior_from_query.is_some()
+    }
+
+    /// The best hypothesis' transform, accepted or not (useful for diagnosis only).
+    pub fn best_guess(&self) -> Option<Isometry3<f64>> {
+        self.diagnostics
+            .hypotheses
+            .first()
+            .map(|h| h.prior_from_query)
+    }
+}
+
+/// A 4 × 4 homogeneous matrix as nested rows.
+pub fn matrix_rows(transform: &Isometry3<f64>) -> [[f64; 4]; 4] {
+    let m: Matrix4<f64> = transform.to_homogeneous();
+    let mut rows = [[0.0; 4]; 4];
+    for (r, row) in rows.iter_mut().enumerate() {
+        for (c, value) in row.iter_mut().enumerate() {
+            *value = m[(r, c)];
+        }
+    }
+    rows
+}
+
+fn serialize_isometry<S: serde::Serializer>(t: &Isometry3<f64>, s: S) -> Result<S::Ok, S::Error> {
+    matrix_rows(t).serialize(s)
+}
+
+fn serialize_option_isometry<S: serde::Serializer>(
+    t: &Option<Isometry3<f64>>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    t.as_ref().map(matrix_rows).serialize(s)
+}
+
+fn serialize_matrix6<S: serde::Serializer>(m: &Matrix6<f64>, s: S) -> Result<S::Ok, S::Error> {
+    let rows: Vec<Vec<f64>> = (0..6)
+        .map(|r| (0..6).map(|c| m[(r, c)]).collect())
+        .collect();
+    rows.serialize(s)
+}

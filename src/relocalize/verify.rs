@@ -1,0 +1,120 @@
+//! Acceptance: decide from the evidence whether the best hypothesis is the answer.
+//!
+//! The worst failure is a wrong transform accepted, so every test must pass: enough
+//! inliers, small residuals, inliers spread in two horizontal directions (collinear or
+//! clustered inliers leave the yaw free), and a clear margin over the runner-up — the best
+//! hypothesis whose transform differs from the winner's.
+
+use super::config::VerificationConfig;
+use super::result::{Hypothesis, Refusal};
+use nalgebra::Isometry3;
+
+/// Sort `hypotheses` best first and decide; `Ok` means the first one is accepted.
+pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Result<(), Refusal> {
+    hypotheses.sort_by(|a, b| {
+        b.inlier_count
+            .cmp(&a.inlier_count)
+            .then(a.rmse_m.total_cmp(&b.rmse_m))
+    });
+    let Some(best) = hypotheses.first() else {
+        return Err(Refusal::TooFewInliers {
+            inliers: 0,
+            required: config.min_inliers,
+        });
+    };
+    if best.inlier_count < config.min_inliers {
+        return Err(Refusal::TooFewInliers {
+            inliers: best.inlier_count,
+            required: config.min_inliers,
+        });
+    }
+    if best.rmse_m > config.max_rmse_m {
+        return Err(Refusal::ResidualTooLarge {
+            rmse_m: best.rmse_m,
+            max_rmse_m: config.max_rmse_m,
+        });
+    }
+    if best.spread_m < config.min_spread_m {
+        return Err(Refusal::DegenerateGeometry {
+            spread_m: best.spread_m,
+            min_spread_m: config.min_spread_m,
+        });
+    }
+    let runner_up = hypotheses[1..]
+        .iter()
+        .filter(|h| {
+            max_displacement(&best.prior_from_query, &h.prior_from_query, best)
+                > config.same_hypothesis_m
+        })
+        .map(|h| h.inlier_count)
+        .max()
+        .unwrap_or(0);
+    let ratio_ok = (runner_up as f64) <= config.max_runner_up_ratio * best.inlier_count as f64;
+    let margin_ok = best.inlier_count >= runner_up + config.min_runner_up_margin;
+    if !(ratio_ok && margin_ok) {
+        return Err(Refusal::Ambiguous {
+            best_inliers: best.inlier_count,
+            runner_up_inliers: runner_up,
+        });
+    }
+    Ok(())
+}
+
+/// Largest distance (m) between where two transforms put the best hypothesis' inliers.
+fn max_displacement(a: &Isometry3<f64>, b: &Isometry3<f64>, best: &Hypothesis) -> f64 {
+    best.support_query
+        .iter()
+        .map(|q| (a * q - b * q).norm())
+        .fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Isometry3, Vector3};
+
+    fn hyp(inliers: usize, rmse: f64, spread: f64, x: f64) -> Hypothesis {
+        Hypothesis {
+            clique_size: inliers,
+            prior_from_query: Isometry3::translation(x, 0.0, 0.0),
+            inliers: vec![],
+            support_query: vec![
+                nalgebra::Point3::origin(),
+                nalgebra::Point3::new(3.0, 2.0, 0.0),
+            ],
+            inlier_count: inliers,
+            rmse_m: rmse,
+            spread_m: spread,
+        }
+    }
+
+    #[test]
+    fn accepts_a_clear_winner() {
+        let mut h = vec![hyp(4, 0.02, 1.0, 5.0), hyp(15, 0.01, 1.0, 0.0)];
+        assert!(decide(&mut h, &VerificationConfig::default()).is_ok());
+        assert_eq!(h[0].inlier_count, 15);
+    }
+
+    #[test]
+    fn refuses_each_kind_of_weak_evidence() {
+        let cfg = VerificationConfig::default();
+        let few = decide(&mut [hyp(4, 0.01, 1.0, 0.0)], &cfg);
+        assert!(matches!(few, Err(Refusal::TooFewInliers { .. })));
+        let loose = decide(&mut [hyp(12, 0.05, 1.0, 0.0)], &cfg);
+        assert!(matches!(loose, Err(Refusal::ResidualTooLarge { .. })));
+        let line = decide(&mut [hyp(12, 0.01, 0.05, 0.0)], &cfg);
+        assert!(matches!(line, Err(Refusal::DegenerateGeometry { .. })));
+        let tie = decide(
+            &mut [hyp(12, 0.01, 1.0, 0.0), hyp(10, 0.01, 1.0, 3.0)],
+            &cfg,
+        );
+        assert!(matches!(tie, Err(Refusal::Ambiguous { .. })));
+    }
+
+    #[test]
+    fn a_near_duplicate_of_the_winner_is_not_a_rival() {
+        let mut h = vec![hyp(12, 0.01, 1.0, 0.0), hyp(11, 0.01, 1.0, 0.01)];
+        assert!(decide(&mut h, &VerificationConfig::default()).is_ok());
+        let _ = Vector3::<f64>::zeros();
+    }
+}
