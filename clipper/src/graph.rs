@@ -181,6 +181,54 @@ impl ConsistencyGraph {
         }
     }
 
+    /// CSR from raw parts (unchecked: rows sorted, symmetric, no loops).
+    pub(crate) fn from_csr_parts(
+        offsets: Vec<usize>,
+        neighbors: Vec<u32>,
+        weights: Vec<f32>,
+    ) -> Self {
+        Self {
+            offsets,
+            neighbors,
+            weights,
+        }
+    }
+
+    /// The same graph with vertex `r` renamed `new_of_old[r]` (a permutation); rows re-sorted.
+    pub(crate) fn relabelled(&self, new_of_old: &[u32]) -> Self {
+        let n = self.num_vertices();
+        let mut offsets = vec![0usize; n + 1];
+        for r in 0..n {
+            offsets[new_of_old[r] as usize + 1] = self.degree(r);
+        }
+        for v in 0..n {
+            offsets[v + 1] += offsets[v];
+        }
+        let mut neighbors = vec![0u32; self.neighbors.len()];
+        let mut weights = vec![0f32; self.weights.len()];
+        let mut row: Vec<(u32, f32)> = Vec::new();
+        for r in 0..n {
+            row.clear();
+            row.extend(
+                self.neighbors(r)
+                    .iter()
+                    .zip(self.weights(r))
+                    .map(|(&u, &w)| (new_of_old[u as usize], w)),
+            );
+            row.sort_unstable_by_key(|e| e.0);
+            let start = offsets[new_of_old[r] as usize];
+            for (k, &(u, w)) in row.iter().enumerate() {
+                neighbors[start + k] = u;
+                weights[start + k] = w;
+            }
+        }
+        Self {
+            offsets,
+            neighbors,
+            weights,
+        }
+    }
+
     /// CSR from the upper triangle given row by row: row `u` lists its neighbours `v > u`
     /// in increasing order (`upper_offsets` has length `n + 1`).
     pub(crate) fn from_upper_rows(
@@ -359,6 +407,14 @@ mod tests {
             &[0.5, 1.0, 0.75, 0.1],
         );
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn relabelling_permutes_vertices() {
+        let g = ConsistencyGraph::from_edges(3, &[(0, 1, 1.0), (1, 2, 0.5)]).unwrap();
+        let h = g.relabelled(&[2, 0, 1]);
+        let expected = ConsistencyGraph::from_edges(3, &[(2, 0, 1.0), (0, 1, 0.5)]).unwrap();
+        assert_eq!(h, expected);
     }
 
     #[test]

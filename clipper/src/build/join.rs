@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use nalgebra::Point3;
 use rayon::prelude::*;
 
-use crate::association::{PairMeasure, PairTest};
+use crate::association::{exponents_to_weights, PairMeasure, PairTest};
 use crate::{Association, ConsistencyGraph};
 
 /// Largest dense (prior x query) lookup table, in entries.
@@ -37,14 +37,18 @@ impl Lookup {
     }
 }
 
-/// One ordered query pair with its measure.
-#[derive(Clone, Copy)]
-struct QueryPair {
-    m: PairMeasure,
-    /// Sort key: distance (6-DOF) or distance cell (4-DOF).
-    cell: i64,
-    j: u32,
-    l: u32,
+/// All ordered query pairs, sorted by (distance cell, key) where the key is the height
+/// difference (4-DOF) or the distance (6-DOF), in structure-of-arrays form with an index of
+/// where each cell starts.
+struct QueryPairs {
+    dist: Vec<f64>,
+    dz: Vec<f64>,
+    j: Vec<u32>,
+    l: Vec<u32>,
+    /// Entries of cell `c` are `cell_start[c]..cell_start[c + 1]`.
+    cell_start: Vec<u32>,
+    /// Cell width (at least epsilon).
+    width: f64,
 }
 
 /// Points of one map that some association uses, in ascending original index.
@@ -78,6 +82,12 @@ impl UsedPoints {
 }
 
 /// Builds the consistency graph by joining the two maps' sorted pair lists.
+///
+/// Work is organised by prior point `a`: one task emits the complete rows (both edge
+/// directions) of every association of `a`, visiting the other prior points `b` in
+/// ascending order, so rows come out sorted by block without any global transposition.
+/// Rows are generated in *rank space* (associations sorted by (prior, query)) and relabelled
+/// to association ids at the end when the list was not already sorted.
 pub(crate) fn build(
     prior: &[Point3<f64>],
     query: &[Point3<f64>],
@@ -89,159 +99,300 @@ pub(crate) fn build(
     let used_q = UsedPoints::new(query.len(), associations.iter().map(|a| a.query));
     let (np, nq) = (used_p.len(), used_q.len());
 
+    // rank order: by (compact prior, compact query)
+    let mut id_of_rank: Vec<u32> = (0..m as u32).collect();
+    id_of_rank.sort_unstable_by_key(|&id| {
+        let a = associations[id as usize];
+        (
+            used_p.compact[a.prior as usize],
+            used_q.compact[a.query as usize],
+        )
+    });
+    let mut block_start = vec![0usize; np + 1];
+    for a in associations {
+        block_start[used_p.compact[a.prior as usize] as usize + 1] += 1;
+    }
+    for p in 0..np {
+        block_start[p + 1] += block_start[p];
+    }
+
     let lookup = if np.saturating_mul(nq) <= DENSE_TABLE_LIMIT {
         let mut ids = vec![u32::MAX; np * nq];
-        for (id, a) in associations.iter().enumerate() {
+        for (r, &id) in id_of_rank.iter().enumerate() {
+            let a = associations[id as usize];
             let p = used_p.compact[a.prior as usize] as usize;
             let q = used_q.compact[a.query as usize] as usize;
-            ids[p * nq + q] = id as u32;
+            ids[p * nq + q] = r as u32;
         }
         Lookup::Dense { n_query: nq, ids }
     } else {
         let mut map = HashMap::with_capacity(m);
-        for (id, a) in associations.iter().enumerate() {
+        for (r, &id) in id_of_rank.iter().enumerate() {
+            let a = associations[id as usize];
             map.insert(
                 (
                     used_p.compact[a.prior as usize],
                     used_q.compact[a.query as usize],
                 ),
-                id as u32,
+                r as u32,
             );
         }
         Lookup::Sparse(map)
     };
 
     let query_pairs = sorted_query_pairs(query, &used_q, test);
+    let prior_points: Vec<Point3<f64>> =
+        used_p.original.iter().map(|&i| prior[i as usize]).collect();
+    let ctx = JoinContext {
+        prior: &prior_points,
+        query_pairs: &query_pairs,
+        test,
+        lookup: &lookup,
+        block_start: &block_start,
+    };
 
-    // Prior pairs row by row (row a: pairs (a, b), b > a), rows chunked for balance.
-    let rows = super::balanced_row_chunks(np);
-    let edges: Vec<Vec<(u32, u32, f32)>> = rows
-        .par_iter()
-        .map(|&(r0, r1)| {
-            let mut out = Vec::new();
-            for a in r0..r1 {
-                let pa = &prior[used_p.original[a] as usize];
-                for b in a + 1..np {
-                    let ma = test.measure(pa, &prior[used_p.original[b] as usize]);
-                    join_one(
-                        ma,
-                        a as u32,
-                        b as u32,
-                        &query_pairs,
-                        test,
-                        &lookup,
-                        &mut out,
-                    );
-                }
+    let n_chunks = (rayon::current_num_threads() * 8).clamp(1, np.max(1));
+    let chunk_len = np.div_ceil(n_chunks).max(1);
+    let blocks: Vec<RowBlock> = (0..np)
+        .step_by(chunk_len)
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|a0| {
+            let mut out = RowBlock::default();
+            let mut scratch = Vec::new();
+            for a in a0..(a0 + chunk_len).min(np) {
+                ctx.rows_of_prior(a, &mut scratch, &mut out);
             }
             out
         })
         .collect();
-    let all: Vec<(u32, u32, f32)> = edges.into_iter().flatten().collect();
-    ConsistencyGraph::from_edge_list(m, &all)
+
+    let total: usize = blocks.iter().map(|b| b.neighbors.len()).sum();
+    let mut offsets = Vec::with_capacity(m + 1);
+    offsets.push(0usize);
+    let mut neighbors = Vec::with_capacity(total);
+    let mut weights = Vec::with_capacity(total);
+    for b in blocks {
+        for c in b.row_counts {
+            let last = offsets[offsets.len() - 1];
+            offsets.push(last + c as usize);
+        }
+        neighbors.extend_from_slice(&b.neighbors);
+        weights.extend_from_slice(&b.exponents);
+    }
+    exponents_to_weights(&mut weights);
+    let in_rank_space = ConsistencyGraph::from_csr_parts(offsets, neighbors, weights);
+    if id_of_rank.iter().enumerate().all(|(r, &id)| r as u32 == id) {
+        in_rank_space
+    } else {
+        in_rank_space.relabelled(&id_of_rank)
+    }
 }
 
-/// All ordered pairs `(j, l)`, `j != l`, of used query points, sorted by (cell, dz) for
-/// 4-DOF or by distance for 6-DOF.
-fn sorted_query_pairs(query: &[Point3<f64>], used: &UsedPoints, test: &PairTest) -> Vec<QueryPair> {
+/// Complete rows of a run of consecutive prior blocks.
+#[derive(Default)]
+struct RowBlock {
+    row_counts: Vec<u32>,
+    neighbors: Vec<u32>,
+    exponents: Vec<f32>,
+}
+
+struct JoinContext<'a> {
+    /// Used prior points, by compact index.
+    prior: &'a [Point3<f64>],
+    query_pairs: &'a QueryPairs,
+    test: &'a PairTest,
+    lookup: &'a Lookup,
+    block_start: &'a [usize],
+}
+
+impl JoinContext<'_> {
+    /// Appends the rows of every association of prior point `a` (compact) to `out`.
+    fn rows_of_prior(&self, a: usize, scratch: &mut Vec<(u32, u32, f32)>, out: &mut RowBlock) {
+        let (r0, r1) = (self.block_start[a], self.block_start[a + 1]);
+        if r0 == r1 {
+            return;
+        }
+        scratch.clear();
+        let a32 = a as u32;
+        for b in 0..self.prior.len() {
+            if b == a {
+                continue;
+            }
+            let b32 = b as u32;
+            if a < b {
+                // association pairs ((a, j), (b, l)): row (a, j), neighbour (b, l)
+                let ma = self.test.measure(&self.prior[a], &self.prior[b]);
+                self.for_each_match(ma, |j, l, x| {
+                    if let (Some(ru), Some(rv)) = (self.lookup.get(a32, j), self.lookup.get(b32, l))
+                    {
+                        scratch.push((ru - r0 as u32, rv, x));
+                    }
+                });
+            } else {
+                // association pairs ((b, j), (a, l)): row (a, l), neighbour (b, j)
+                let ma = self.test.measure(&self.prior[b], &self.prior[a]);
+                self.for_each_match(ma, |j, l, x| {
+                    if let (Some(ru), Some(rv)) = (self.lookup.get(a32, l), self.lookup.get(b32, j))
+                    {
+                        scratch.push((ru - r0 as u32, rv, x));
+                    }
+                });
+            }
+        }
+        // stable counting sort by row keeps the ascending-b order; then sort within rows
+        let rows = r1 - r0;
+        let mut start = vec![0u32; rows + 1];
+        for &(r, _, _) in scratch.iter() {
+            start[r as usize + 1] += 1;
+        }
+        for r in 0..rows {
+            start[r + 1] += start[r];
+        }
+        let base = out.neighbors.len();
+        out.neighbors.resize(base + scratch.len(), 0);
+        out.exponents.resize(base + scratch.len(), 0.0);
+        let mut cursor = start.clone();
+        for &(r, v, x) in scratch.iter() {
+            let c = &mut cursor[r as usize];
+            out.neighbors[base + *c as usize] = v;
+            out.exponents[base + *c as usize] = x;
+            *c += 1;
+        }
+        for r in 0..rows {
+            let (s, e) = (base + start[r] as usize, base + start[r + 1] as usize);
+            insertion_sort_pairs(&mut out.neighbors[s..e], &mut out.exponents[s..e]);
+            out.row_counts.push(start[r + 1] - start[r]);
+        }
+    }
+
+    /// Calls `f(j, l, exponent)` for every ordered query pair `(j, l)` consistent with the
+    /// prior measure `ma`.
+    #[inline]
+    fn for_each_match(&self, ma: PairMeasure, mut f: impl FnMut(u32, u32, f32)) {
+        let test = self.test;
+        let qp = self.query_pairs;
+        let n_cells = qp.cell_start.len().saturating_sub(1) as i64;
+        if n_cells == 0 {
+            return;
+        }
+        // Search windows slightly wider than the thresholds (rounding of the window ends);
+        // the exact test decides.
+        let slack = 1e-9 * test.epsilon + 1e-12 * ma.dist.abs();
+        let lo = ma.dist - test.epsilon - slack;
+        let hi = ma.dist + test.epsilon + slack;
+        let c_lo = cell_of(lo, qp.width).clamp(0, n_cells - 1);
+        let c_hi = cell_of(hi, qp.width).clamp(0, n_cells - 1);
+        let mut visit = |k: usize| {
+            let mb = PairMeasure {
+                dist: qp.dist[k],
+                dz: qp.dz[k],
+            };
+            if let Some(x) = test.exponent(ma, mb) {
+                f(qp.j[k], qp.l[k], x);
+            }
+        };
+        if test.gravity {
+            let slack_z = 1e-9 * test.epsilon_z + 1e-12 * ma.dz.abs();
+            let zlo = ma.dz - test.epsilon_z - slack_z;
+            let zhi = ma.dz + test.epsilon_z + slack_z;
+            for c in c_lo..=c_hi {
+                let (s, e) = (
+                    qp.cell_start[c as usize] as usize,
+                    qp.cell_start[c as usize + 1] as usize,
+                );
+                let dz = &qp.dz[s..e];
+                let first = s + dz.partition_point(|&z| z < zlo);
+                for k in first..e {
+                    if qp.dz[k] > zhi {
+                        break;
+                    }
+                    visit(k);
+                }
+            }
+        } else {
+            let (s, e) = (
+                qp.cell_start[c_lo as usize] as usize,
+                qp.cell_start[c_lo as usize + 1] as usize,
+            );
+            let first = s + qp.dist[s..e].partition_point(|&d| d < lo);
+            for k in first..qp.dist.len() {
+                if qp.dist[k] > hi {
+                    break;
+                }
+                visit(k);
+            }
+        }
+    }
+}
+
+/// Sorts `keys` ascending, permuting `vals` alike; rows arrive nearly sorted.
+fn insertion_sort_pairs(keys: &mut [u32], vals: &mut [f32]) {
+    for i in 1..keys.len() {
+        let (k, v) = (keys[i], vals[i]);
+        let mut j = i;
+        while j > 0 && keys[j - 1] > k {
+            keys[j] = keys[j - 1];
+            vals[j] = vals[j - 1];
+            j -= 1;
+        }
+        keys[j] = k;
+        vals[j] = v;
+    }
+}
+
+/// All ordered pairs `(j, l)`, `j != l`, of used query points (see [`QueryPairs`]).
+fn sorted_query_pairs(query: &[Point3<f64>], used: &UsedPoints, test: &PairTest) -> QueryPairs {
     let nq = used.len();
-    let mut list: Vec<QueryPair> = (0..nq)
+    // (measure, j, l) for both orientations of every unordered pair
+    let list: Vec<(PairMeasure, u32, u32)> = (0..nq)
         .into_par_iter()
         .flat_map_iter(|j| {
             let qj = &query[used.original[j] as usize];
             (j + 1..nq).flat_map(move |l| {
                 let ms = test.measure(qj, &query[used.original[l] as usize]);
-                let cell = if test.gravity {
-                    cell_of(ms.dist, test.epsilon)
-                } else {
-                    0
-                };
                 let rev = PairMeasure {
                     dist: ms.dist,
                     dz: -ms.dz,
                 };
-                [
-                    QueryPair {
-                        m: ms,
-                        cell,
-                        j: j as u32,
-                        l: l as u32,
-                    },
-                    QueryPair {
-                        m: rev,
-                        cell,
-                        j: l as u32,
-                        l: j as u32,
-                    },
-                ]
+                [(ms, j as u32, l as u32), (rev, l as u32, j as u32)]
             })
         })
         .collect();
-    if test.gravity {
-        list.par_sort_unstable_by(|x, y| {
-            x.cell
-                .cmp(&y.cell)
-                .then(x.m.dz.total_cmp(&y.m.dz))
-                .then((x.j, x.l).cmp(&(y.j, y.l)))
-        });
-    } else {
-        list.par_sort_unstable_by(|x, y| {
-            x.m.dist
-                .total_cmp(&y.m.dist)
-                .then((x.j, x.l).cmp(&(y.j, y.l)))
-        });
+    let max_dist = list.iter().map(|e| e.0.dist).fold(0.0f64, f64::max);
+    // cells no narrower than epsilon, and no more cells than entries
+    let width = test
+        .epsilon
+        .max(max_dist / (list.len().max(1) as f64))
+        .max(f64::MIN_POSITIVE);
+    let key = |m: &PairMeasure| if test.gravity { m.dz } else { m.dist };
+    let mut keyed: Vec<(i64, f64, u32)> = list
+        .iter()
+        .enumerate()
+        .map(|(k, e)| (cell_of(e.0.dist, width), key(&e.0), k as u32))
+        .collect();
+    // ties broken by (j, l) through the generation order, which is fixed
+    keyed.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let n_cells = keyed.last().map(|e| e.0 as usize + 1).unwrap_or(0);
+    let mut cell_start = vec![0u32; n_cells + 1];
+    for e in &keyed {
+        cell_start[e.0 as usize + 1] += 1;
     }
-    list
+    for c in 0..n_cells {
+        cell_start[c + 1] += cell_start[c];
+    }
+    let list: Vec<(PairMeasure, u32, u32)> = keyed.iter().map(|e| list[e.2 as usize]).collect();
+    QueryPairs {
+        dist: list.iter().map(|e| e.0.dist).collect(),
+        dz: list.iter().map(|e| e.0.dz).collect(),
+        j: list.iter().map(|e| e.1).collect(),
+        l: list.iter().map(|e| e.2).collect(),
+        cell_start,
+        width,
+    }
 }
 
 #[inline]
 fn cell_of(dist: f64, width: f64) -> i64 {
     (dist / width).floor() as i64
-}
-
-/// Emits every edge of prior pair `(a, b)` (compact, `a < b`, measure `ma`).
-#[inline]
-fn join_one(
-    ma: PairMeasure,
-    a: u32,
-    b: u32,
-    query_pairs: &[QueryPair],
-    test: &PairTest,
-    lookup: &Lookup,
-    out: &mut Vec<(u32, u32, f32)>,
-) {
-    // Search windows slightly wider than the thresholds (rounding of the window ends); the
-    // exact test decides.
-    let slack = 1e-9 * test.epsilon + 1e-12 * ma.dist.abs();
-    let lo = ma.dist - test.epsilon - slack;
-    let hi = ma.dist + test.epsilon + slack;
-    let mut emit = |qp: &QueryPair| {
-        if let (Some(u), Some(v)) = (lookup.get(a, qp.j), lookup.get(b, qp.l)) {
-            if let Some(w) = test.weight(ma, qp.m) {
-                out.push((u, v, w));
-            }
-        }
-    };
-    if test.gravity {
-        let slack_z = 1e-9 * test.epsilon_z + 1e-12 * ma.dz.abs();
-        let zlo = ma.dz - test.epsilon_z - slack_z;
-        let zhi = ma.dz + test.epsilon_z + slack_z;
-        for cell in cell_of(lo, test.epsilon)..=cell_of(hi, test.epsilon) {
-            let start = query_pairs.partition_point(|q| (q.cell, q.m.dz) < (cell, zlo));
-            for qp in &query_pairs[start..] {
-                if qp.cell != cell || qp.m.dz > zhi {
-                    break;
-                }
-                emit(qp);
-            }
-        }
-    } else {
-        let start = query_pairs.partition_point(|q| q.m.dist < lo);
-        for qp in &query_pairs[start..] {
-            if qp.m.dist > hi {
-                break;
-            }
-            emit(qp);
-        }
-    }
 }

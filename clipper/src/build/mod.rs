@@ -158,7 +158,7 @@ fn match_fraction(
     let mut hits = 0usize;
     for a in &sp {
         for b in &sq {
-            hits += test.weight(*a, *b).is_some() as usize;
+            hits += test.exponent(*a, *b).is_some() as usize;
         }
     }
     (hits.max(1)) as f64 / (SAMPLE * SAMPLE) as f64

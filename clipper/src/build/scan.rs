@@ -11,7 +11,7 @@
 use nalgebra::Point3;
 use rayon::prelude::*;
 
-use crate::association::PairTest;
+use crate::association::{exponents_to_weights, PairTest};
 use crate::{Association, ConsistencyGraph};
 
 /// Lanes of one prefilter block.
@@ -153,6 +153,7 @@ pub(crate) fn build(
         upper_neighbors.extend_from_slice(&nbrs);
         upper_weights.extend_from_slice(&wts);
     }
+    exponents_to_weights(&mut upper_weights);
     ConsistencyGraph::from_upper_rows(m, &upper_offsets, &upper_neighbors, &upper_weights)
 }
 

@@ -1,4 +1,5 @@
 use super::*;
+use crate::association::exp_neg;
 use crate::testutil::{problem, Mode};
 
 fn distance(eps: f64, sigma: f64) -> Invariant {
@@ -28,8 +29,8 @@ fn brute_force(
     let mut e = Vec::new();
     for u in 0..assoc.len() {
         for v in u + 1..assoc.len() {
-            if let Some(w) = t.test_associations(prior, query, assoc[u], assoc[v]) {
-                e.push((u as u32, v as u32, w));
+            if let Some(x) = t.test_associations(prior, query, assoc[u], assoc[v]) {
+                e.push((u as u32, v as u32, exp_neg(x)));
             }
         }
     }
