@@ -160,10 +160,11 @@ impl PairTest {
         let c = (a.dist - b.dist).abs();
         if self.gravity {
             let cz = (a.dz - b.dz).abs();
-            (c < self.epsilon && cz < self.epsilon_z)
-                .then(|| (c * c * self.inv_two_sigma_sq + cz * cz * self.inv_two_sigma_z_sq) as f32)
+            (c < self.epsilon && cz < self.epsilon_z).then_some(
+                (c * c * self.inv_two_sigma_sq + cz * cz * self.inv_two_sigma_z_sq) as f32,
+            )
         } else {
-            (c < self.epsilon).then(|| (c * c * self.inv_two_sigma_sq) as f32)
+            (c < self.epsilon).then_some((c * c * self.inv_two_sigma_sq) as f32)
         }
     }
 
