@@ -26,6 +26,10 @@ pub struct RelocalizeArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Also write the all-to-all association problem of the two maps to this file (the
+    /// exchange format of `segloc bench associate`), for benchmarking on real data.
+    #[arg(long, value_name = "FILE")]
+    pub dump_problem: Option<PathBuf>,
 }
 
 /// Parse a `--dof` value.
@@ -46,6 +50,15 @@ pub fn run(args: &RelocalizeArgs, config: &RelocalizeConfig) -> Result<i32> {
     }
     let (prior, _) = load_map(&args.prior, &config.landmarks)?;
     let (query, _) = load_map(&args.query, &config.landmarks)?;
+    if let Some(path) = &args.dump_problem {
+        let dof = answer_dof(&config, &prior, &query);
+        let text = segloc::io::association_problem::problem_to_string(
+            &prior.positions(),
+            &query.positions(),
+            &segloc::relocalize::consistency::invariant(dof, &config.consistency),
+        );
+        segloc_maps::write_atomic(path, text.as_bytes())?;
+    }
     let answer = Relocalizer::new(prior, config.clone())
         .and_then(|r| r.relocalize(&query))
         .with_context(|| {
@@ -62,6 +75,20 @@ pub fn run(args: &RelocalizeArgs, config: &RelocalizeConfig) -> Result<i32> {
         print_summary(&answer, time_ms);
     }
     Ok(if answer.is_accepted() { 0 } else { 1 })
+}
+
+fn answer_dof(
+    config: &RelocalizeConfig,
+    prior: &segloc_maps::ObjectMap,
+    query: &segloc_maps::ObjectMap,
+) -> Dof {
+    config
+        .dof
+        .unwrap_or(if prior.gravity_aligned && query.gravity_aligned {
+            Dof::Four
+        } else {
+            Dof::Six
+        })
 }
 
 /// The JSON report of one relocalization.

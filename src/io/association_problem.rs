@@ -145,13 +145,15 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<AssociationProblem, MapE
             {
                 associations.push(Association { prior: i, query: j })
             }
-            _ => return Err(MapError::parse_at(
-                path,
-                k,
-                format!(
+            _ => {
+                return Err(MapError::parse_at(
+                    path,
+                    k,
+                    format!(
                     "association: expected 'i j' with i < {n_prior} and j < {n_query}, got '{l}'"
                 ),
-            )),
+                ))
+            }
         }
     }
     Ok(AssociationProblem {
@@ -160,6 +162,35 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<AssociationProblem, MapE
         associations,
         invariant,
     })
+}
+
+/// An all-to-all problem in the exchange format. For the gravity-aligned invariant the
+/// format has one ε and one σ: the horizontal ones are written.
+pub fn problem_to_string(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    invariant: &Invariant,
+) -> String {
+    use std::fmt::Write as _;
+    let (epsilon, sigma, dof) = match invariant {
+        Invariant::Distance { epsilon, sigma } => (*epsilon, *sigma, 6),
+        Invariant::GravityAligned { epsilon, sigma, .. } => (*epsilon, *sigma, 4),
+    };
+    let mut out = format!(
+        "{} {} {} {epsilon} {sigma} {dof}\n",
+        prior.len(),
+        query.len(),
+        prior.len() * query.len()
+    );
+    for p in prior.iter().chain(query) {
+        let _ = writeln!(out, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
+    }
+    for i in 0..prior.len() {
+        for j in 0..query.len() {
+            let _ = writeln!(out, "{i} {j}");
+        }
+    }
+    out
 }
 
 /// Read the `.gt` file of a problem (its first line: true association indices).
