@@ -94,8 +94,8 @@ pub(crate) struct PairTest {
     pub gravity: bool,
     pub epsilon: f64,
     pub epsilon_z: f64,
-    inv_two_sigma_sq: f64,
-    inv_two_sigma_z_sq: f64,
+    pub inv_two_sigma_sq: f64,
+    pub inv_two_sigma_z_sq: f64,
 }
 
 /// What the invariant measures on one ordered pair of points of the same map.

@@ -46,6 +46,19 @@ impl Peel {
     /// Removes vertices until every survivor has at least `k` surviving neighbours: the
     /// survivors are the `k`-core (of the current survivors).
     pub fn peel(&mut self, graph: &ConsistencyGraph, k: usize) {
+        // A non-empty k-core has more than k vertices of degree >= k: when there are not
+        // that many candidates, it is empty and nothing needs peeling.
+        let candidates = self
+            .alive
+            .iter()
+            .zip(&self.deg)
+            .filter(|&(&a, &d)| a && d as usize >= k)
+            .count();
+        if candidates <= k {
+            self.alive.fill(false);
+            self.alive_count = 0;
+            return;
+        }
         let k = k as u32;
         self.stack.clear();
         for v in 0..self.alive.len() {
@@ -112,7 +125,10 @@ pub(crate) fn greedy_front(graph: &ConsistencyGraph, max_starts: usize) -> Front
         }
         let clique = grower.grow(graph, v, &peel.alive, best.len(), &mut spent);
         if clique.len() > best.len() {
-            best = extend_to_maximal(graph, &clique);
+            // A grown clique that beats the best is maximal: `grow` passed over every
+            // candidate, and the candidates it dropped cannot lie in a clique this large.
+            best = clique;
+            best.sort_unstable();
             peel.peel(graph, best.len());
             if peel.alive_count() == 0 {
                 return Front {

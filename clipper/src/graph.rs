@@ -2,6 +2,16 @@
 
 use crate::ClipperError;
 
+/// A run of consecutive rows of an upper-triangular adjacency: row `k` of the run has
+/// `counts[k]` neighbours (all larger than the row's vertex, ascending), stored one row after
+/// the other in `neighbors` / `weights`.
+#[derive(Default)]
+pub(crate) struct UpperRows {
+    pub counts: Vec<u32>,
+    pub neighbors: Vec<u32>,
+    pub weights: Vec<f32>,
+}
+
 /// An undirected weighted graph in compressed sparse rows (CSR).
 ///
 /// Vertex `v`'s neighbours are `neighbors(v)`, sorted ascending, with the matching edge
@@ -231,19 +241,42 @@ impl ConsistencyGraph {
 
     /// CSR from the upper triangle given row by row: row `u` lists its neighbours `v > u`
     /// in increasing order (`upper_offsets` has length `n + 1`).
+    #[cfg(test)]
     pub(crate) fn from_upper_rows(
         n: usize,
         upper_offsets: &[usize],
         upper_neighbors: &[u32],
         upper_weights: &[f32],
     ) -> Self {
-        let mut lower_deg = vec![0usize; n];
-        for &v in upper_neighbors {
-            lower_deg[v as usize] += 1;
+        let chunk = UpperRows {
+            counts: upper_offsets
+                .windows(2)
+                .map(|w| (w[1] - w[0]) as u32)
+                .collect(),
+            neighbors: upper_neighbors.to_vec(),
+            weights: upper_weights.to_vec(),
+        };
+        Self::from_upper_chunks(n, &[chunk])
+    }
+
+    /// CSR from the upper triangle given as consecutive runs of rows (see [`UpperRows`]);
+    /// the chunks' row counts must add up to `n`.
+    pub(crate) fn from_upper_chunks(n: usize, chunks: &[UpperRows]) -> Self {
+        let mut lower_deg = vec![0u32; n];
+        for c in chunks {
+            for &v in &c.neighbors {
+                lower_deg[v as usize] += 1;
+            }
         }
-        let mut offsets = vec![0usize; n + 1];
-        for u in 0..n {
-            offsets[u + 1] = offsets[u] + lower_deg[u] + (upper_offsets[u + 1] - upper_offsets[u]);
+        let mut offsets = Vec::with_capacity(n + 1);
+        offsets.push(0usize);
+        let mut u = 0usize;
+        for c in chunks {
+            for &cnt in &c.counts {
+                let last = offsets[u];
+                offsets.push(last + lower_deg[u] as usize + cnt as usize);
+                u += 1;
+            }
         }
         let total = offsets[n];
         let mut neighbors = vec![0u32; total];
@@ -251,17 +284,22 @@ impl ConsistencyGraph {
         // Lower part of each row is filled as rows u = 0, 1, ... are visited (ascending u),
         // the upper part is copied directly after it.
         let mut lower_cursor = offsets[..n].to_vec();
-        for u in 0..n {
-            let (a, b) = (upper_offsets[u], upper_offsets[u + 1]);
-            let start = offsets[u] + lower_deg[u];
-            neighbors[start..start + (b - a)].copy_from_slice(&upper_neighbors[a..b]);
-            weights[start..start + (b - a)].copy_from_slice(&upper_weights[a..b]);
-            for k in a..b {
-                let v = upper_neighbors[k] as usize;
-                let c = &mut lower_cursor[v];
-                neighbors[*c] = u as u32;
-                weights[*c] = upper_weights[k];
-                *c += 1;
+        let mut u = 0usize;
+        for c in chunks {
+            let mut a = 0usize;
+            for &cnt in &c.counts {
+                let b = a + cnt as usize;
+                let start = offsets[u] + lower_deg[u] as usize;
+                neighbors[start..start + (b - a)].copy_from_slice(&c.neighbors[a..b]);
+                weights[start..start + (b - a)].copy_from_slice(&c.weights[a..b]);
+                for (&v, &w) in c.neighbors[a..b].iter().zip(&c.weights[a..b]) {
+                    let pos = lower_cursor[v as usize];
+                    lower_cursor[v as usize] = pos + 1;
+                    neighbors[pos] = u as u32;
+                    weights[pos] = w;
+                }
+                a = b;
+                u += 1;
             }
         }
         Self {
@@ -340,25 +378,30 @@ impl ConsistencyGraph {
         if vertices.is_empty() {
             return 0.0;
         }
-        let mut sorted = vertices.to_vec();
+        let n = self.num_vertices();
+        let mut member = vec![false; n];
+        for &v in vertices {
+            if let Some(m) = member.get_mut(v as usize) {
+                *m = true;
+            }
+        }
+        let mut sorted: Vec<u32> = vertices
+            .iter()
+            .copied()
+            .filter(|&v| (v as usize) < n)
+            .collect();
         sorted.sort_unstable();
+        sorted.dedup();
         let mut sum = 0.0f64;
         for &u in &sorted {
-            // merge row u with the sorted vertex set
-            let row = self.neighbors(u as usize);
-            let w = self.weights(u as usize);
-            let (mut a, mut b) = (0, 0);
-            while a < row.len() && b < sorted.len() {
-                match row[a].cmp(&sorted[b]) {
-                    std::cmp::Ordering::Less => a += 1,
-                    std::cmp::Ordering::Greater => b += 1,
-                    std::cmp::Ordering::Equal => {
-                        sum += w[a] as f64;
-                        a += 1;
-                        b += 1;
-                    }
-                }
-            }
+            let row_sum: f64 = self
+                .neighbors(u as usize)
+                .iter()
+                .zip(self.weights(u as usize))
+                .filter(|(&x, _)| member[x as usize])
+                .map(|(_, &w)| w as f64)
+                .sum();
+            sum += row_sum;
         }
         let k = sorted.len() as f64;
         (k + sum) / k

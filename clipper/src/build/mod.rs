@@ -8,6 +8,8 @@
 
 mod join;
 mod scan;
+#[cfg(target_arch = "x86_64")]
+mod scan_avx2;
 
 use nalgebra::Point3;
 
@@ -70,7 +72,7 @@ impl ConsistencyGraph {
         };
         Ok(match strategy {
             BuildStrategy::Join => join::build(prior, query, associations, &test),
-            _ => scan::build(prior, query, associations, &test),
+            _ => scan::build(prior, query, associations, &test, scan::Kernel::detect()),
         })
     }
 }

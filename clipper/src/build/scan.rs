@@ -5,38 +5,54 @@
 //! `|da - db| < e` implies `(A - B)^2 = (da - db)^2 (da + db)^2 < e^2 (da + db)^2 <= 2 e^2 (A + B)`.
 //! It runs on map-centred `f32` coordinates with a widened threshold that covers their
 //! rounding, so it never rejects a consistent pair; the survivors (a few percent) are then
-//! decided by [`PairTest::test_associations`] on the original `f64` points, the same function
-//! the join uses, so both builders give identical graphs.
+//! decided in `f64` on the original points with exactly the arithmetic of
+//! [`PairTest::test_associations`] (the function the join uses), so both builders give
+//! identical graphs. On x86-64 with AVX2 and FMA both stages run in explicit SIMD
+//! ([`super::scan_avx2`]); elsewhere a portable version runs.
 
 use nalgebra::Point3;
 use rayon::prelude::*;
 
 use crate::association::{exponents_to_weights, PairTest};
+use crate::graph::UpperRows;
 use crate::{Association, ConsistencyGraph};
 
-/// Lanes of one prefilter block.
+/// Lanes of one portable prefilter block.
 const LANES: usize = 8;
 
-/// Association endpoints in structure-of-arrays `f32` form, map-centred.
-struct Soa {
-    px: Vec<f32>,
-    py: Vec<f32>,
-    pz: Vec<f32>,
-    qx: Vec<f32>,
-    qy: Vec<f32>,
-    qz: Vec<f32>,
+/// Everything one row of the scan needs.
+pub(crate) struct ScanData<'a> {
+    /// Map-centred `f32` coordinates of each association's prior point (x, y, z) and query
+    /// point (x, y, z), structure of arrays.
+    pub px: Vec<f32>,
+    pub py: Vec<f32>,
+    pub pz: Vec<f32>,
+    pub qx: Vec<f32>,
+    pub qy: Vec<f32>,
+    pub qz: Vec<f32>,
+    /// Original `f64` coordinates, same layout.
+    pub px64: Vec<f64>,
+    pub py64: Vec<f64>,
+    pub pz64: Vec<f64>,
+    pub qx64: Vec<f64>,
+    pub qy64: Vec<f64>,
+    pub qz64: Vec<f64>,
+    pub prior: &'a [Point3<f64>],
+    pub query: &'a [Point3<f64>],
+    pub associations: &'a [Association],
+    pub pre: Prefilter,
+    pub test: PairTest,
 }
 
 /// Thresholds of the prefilter (already widened).
 #[derive(Clone, Copy)]
-struct Prefilter {
+pub(crate) struct Prefilter {
     /// `2 e'^2`.
-    k: f32,
+    pub k: f32,
     /// `e'^4`: keeps pairs of coincident points.
-    k_abs: f32,
+    pub k_abs: f32,
     /// Height threshold `e_z'` (4-DOF only).
-    eps_z: f32,
-    gravity: bool,
+    pub eps_z: f32,
 }
 
 fn centre(points: &[Point3<f64>]) -> [f64; 3] {
@@ -57,200 +73,238 @@ fn centre(points: &[Point3<f64>]) -> [f64; 3] {
     c
 }
 
+/// Which kernels a build uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Kernel {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl Kernel {
+    /// The fastest kernel this CPU supports.
+    pub fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+                && std::arch::is_x86_feature_detected!("popcnt")
+                && std::arch::is_x86_feature_detected!("bmi1")
+            {
+                return Kernel::Avx2;
+            }
+        }
+        Kernel::Portable
+    }
+}
+
 /// Builds the consistency graph by testing every pair of associations.
 pub(crate) fn build(
     prior: &[Point3<f64>],
     query: &[Point3<f64>],
     associations: &[Association],
     test: &PairTest,
+    kernel: Kernel,
 ) -> ConsistencyGraph {
     let m = associations.len();
-    let cp = centre(prior);
-    let cq = centre(query);
-    let mut scale = 0.0f64;
-    let mut soa = Soa {
-        px: Vec::with_capacity(m),
-        py: Vec::with_capacity(m),
-        pz: Vec::with_capacity(m),
-        qx: Vec::with_capacity(m),
-        qy: Vec::with_capacity(m),
-        qz: Vec::with_capacity(m),
-    };
-    for a in associations {
-        let p = &prior[a.prior as usize];
-        let q = &query[a.query as usize];
-        let c = [
-            p.x - cp[0],
-            p.y - cp[1],
-            p.z - cp[2],
-            q.x - cq[0],
-            q.y - cq[1],
-            q.z - cq[2],
-        ];
-        for v in c {
-            scale = scale.max(v.abs());
-        }
-        soa.px.push(c[0] as f32);
-        soa.py.push(c[1] as f32);
-        soa.pz.push(c[2] as f32);
-        soa.qx.push(c[3] as f32);
-        soa.qy.push(c[4] as f32);
-        soa.qz.push(c[5] as f32);
-    }
-    // f32 rounding of centred coordinates and of the squared lengths stays far below
-    // 3e-5 * scale on every distance; widen by that plus a relative 1e-4.
-    let margin = 3e-5 * scale;
-    let eps = test.epsilon * (1.0 + 1e-4) + margin;
-    let eps_z = if test.gravity {
-        test.epsilon_z * (1.0 + 1e-4) + margin
-    } else {
-        f64::INFINITY
-    };
-    let pre = Prefilter {
-        k: (2.0 * eps * eps) as f32,
-        k_abs: (eps * eps * eps * eps) as f32,
-        eps_z: eps_z as f32,
-        gravity: test.gravity,
-    };
-
+    let data = ScanData::new(prior, query, associations, test);
     let chunks = super::balanced_row_chunks(m);
-    let results: Vec<(Vec<usize>, Vec<u32>, Vec<f32>)> = chunks
+    let rows: Vec<UpperRows> = chunks
         .par_iter()
         .map(|&(r0, r1)| {
-            let mut counts = Vec::with_capacity(r1 - r0);
-            let mut nbrs = Vec::new();
-            let mut wts = Vec::new();
-            let mut cand = Vec::new();
+            let mut out = UpperRows {
+                counts: Vec::with_capacity(r1 - r0),
+                ..UpperRows::default()
+            };
+            let mut cand = vec![0u32; m + 16];
             for u in r0..r1 {
-                cand.clear();
-                prefilter_row(&soa, u, &pre, &mut cand);
-                let before = nbrs.len();
-                let au = associations[u];
-                for &v in &cand {
-                    if let Some(w) =
-                        test.test_associations(prior, query, au, associations[v as usize])
-                    {
-                        nbrs.push(v);
-                        wts.push(w);
-                    }
-                }
-                counts.push(nbrs.len() - before);
+                let before = out.neighbors.len();
+                data.scan_row(kernel, u, &mut cand, &mut out.neighbors, &mut out.weights);
+                out.counts.push((out.neighbors.len() - before) as u32);
             }
-            (counts, nbrs, wts)
+            exponents_to_weights(&mut out.weights);
+            out
         })
         .collect();
-
-    let total: usize = results.iter().map(|r| r.1.len()).sum();
-    let mut upper_offsets = Vec::with_capacity(m + 1);
-    upper_offsets.push(0usize);
-    let mut upper_neighbors = Vec::with_capacity(total);
-    let mut upper_weights = Vec::with_capacity(total);
-    for (counts, nbrs, wts) in results {
-        for c in counts {
-            let last = *upper_offsets.last().unwrap_or(&0);
-            upper_offsets.push(last + c);
-        }
-        upper_neighbors.extend_from_slice(&nbrs);
-        upper_weights.extend_from_slice(&wts);
-    }
-    exponents_to_weights(&mut upper_weights);
-    ConsistencyGraph::from_upper_rows(m, &upper_offsets, &upper_neighbors, &upper_weights)
+    ConsistencyGraph::from_upper_chunks(m, &rows)
 }
 
-/// Appends to `out` every `v > u` that passes the prefilter.
-fn prefilter_row(soa: &Soa, u: usize, pre: &Prefilter, out: &mut Vec<u32>) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports AVX2 and FMA (checked just above).
-            unsafe { prefilter_row_avx2(soa, u, pre, out) };
-            return;
-        }
-    }
-    if pre.gravity {
-        prefilter_row_generic::<true>(soa, u, pre, out);
-    } else {
-        prefilter_row_generic::<false>(soa, u, pre, out);
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn prefilter_row_avx2(soa: &Soa, u: usize, pre: &Prefilter, out: &mut Vec<u32>) {
-    if pre.gravity {
-        prefilter_row_generic::<true>(soa, u, pre, out);
-    } else {
-        prefilter_row_generic::<false>(soa, u, pre, out);
-    }
-}
-
-/// Portable kernel; compiled a second time with AVX2 enabled. Blocks of [`LANES`] lanes are
-/// written branch-free so that they vectorise.
-#[inline(always)]
-fn prefilter_row_generic<const GRAVITY: bool>(
-    soa: &Soa,
-    u: usize,
-    pre: &Prefilter,
-    out: &mut Vec<u32>,
-) {
-    let m = soa.px.len();
-    let (ax, ay, az) = (soa.px[u], soa.py[u], soa.pz[u]);
-    let (bx, by, bz) = (soa.qx[u], soa.qy[u], soa.qz[u]);
-    let mut v0 = u + 1;
-    let lane_pass = |v: usize| -> bool {
-        let dx = ax - soa.px[v];
-        let dy = ay - soa.py[v];
-        let dza = az - soa.pz[v];
-        let ex = bx - soa.qx[v];
-        let ey = by - soa.qy[v];
-        let dzb = bz - soa.qz[v];
-        let (a, b) = if GRAVITY {
-            (dx * dx + dy * dy, ex * ex + ey * ey)
-        } else {
-            (dx * dx + dy * dy + dza * dza, ex * ex + ey * ey + dzb * dzb)
+impl<'a> ScanData<'a> {
+    fn new(
+        prior: &'a [Point3<f64>],
+        query: &'a [Point3<f64>],
+        associations: &'a [Association],
+        test: &PairTest,
+    ) -> Self {
+        let m = associations.len();
+        let cp = centre(prior);
+        let cq = centre(query);
+        let mut scale = 0.0f64;
+        let mut d = ScanData {
+            px: Vec::with_capacity(m),
+            py: Vec::with_capacity(m),
+            pz: Vec::with_capacity(m),
+            qx: Vec::with_capacity(m),
+            qy: Vec::with_capacity(m),
+            qz: Vec::with_capacity(m),
+            px64: Vec::with_capacity(m),
+            py64: Vec::with_capacity(m),
+            pz64: Vec::with_capacity(m),
+            qx64: Vec::with_capacity(m),
+            qy64: Vec::with_capacity(m),
+            qz64: Vec::with_capacity(m),
+            prior,
+            query,
+            associations,
+            pre: Prefilter {
+                k: 0.0,
+                k_abs: 0.0,
+                eps_z: 0.0,
+            },
+            test: *test,
         };
-        let d = a - b;
-        d * d <= pre.k * (a + b) + pre.k_abs && (!GRAVITY || (dza - dzb).abs() <= pre.eps_z)
+        for a in associations {
+            let p = &prior[a.prior as usize];
+            let q = &query[a.query as usize];
+            let c = [
+                p.x - cp[0],
+                p.y - cp[1],
+                p.z - cp[2],
+                q.x - cq[0],
+                q.y - cq[1],
+                q.z - cq[2],
+            ];
+            for v in c {
+                scale = scale.max(v.abs());
+            }
+            d.px.push(c[0] as f32);
+            d.py.push(c[1] as f32);
+            d.pz.push(c[2] as f32);
+            d.qx.push(c[3] as f32);
+            d.qy.push(c[4] as f32);
+            d.qz.push(c[5] as f32);
+            d.px64.push(p.x);
+            d.py64.push(p.y);
+            d.pz64.push(p.z);
+            d.qx64.push(q.x);
+            d.qy64.push(q.y);
+            d.qz64.push(q.z);
+        }
+        // f32 rounding of centred coordinates and of the squared lengths stays far below
+        // 3e-5 * scale on every distance; widen by that plus a relative 1e-4.
+        let margin = 3e-5 * scale;
+        let eps = test.epsilon * (1.0 + 1e-4) + margin;
+        let eps_z = if test.gravity {
+            test.epsilon_z * (1.0 + 1e-4) + margin
+        } else {
+            f64::INFINITY
+        };
+        d.pre = Prefilter {
+            k: (2.0 * eps * eps) as f32,
+            k_abs: (eps * eps * eps * eps) as f32,
+            eps_z: eps_z as f32,
+        };
+        d
+    }
+
+    /// Appends row `u`'s neighbours `v > u` and their weight exponents. `cand` is scratch of
+    /// length at least `m + 16`.
+    fn scan_row(
+        &self,
+        kernel: Kernel,
+        u: usize,
+        cand: &mut [u32],
+        nbrs: &mut Vec<u32>,
+        xs: &mut Vec<f32>,
+    ) {
+        match kernel {
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => {
+                // SAFETY: `Kernel::Avx2` is only chosen when the CPU has AVX2, FMA, POPCNT and BMI1.
+                unsafe {
+                    if self.test.gravity {
+                        super::scan_avx2::scan_row::<true>(self, u, cand, nbrs, xs)
+                    } else {
+                        super::scan_avx2::scan_row::<false>(self, u, cand, nbrs, xs)
+                    }
+                }
+            }
+            Kernel::Portable => {
+                let n = if self.test.gravity {
+                    prefilter_row_generic::<true>(self, u, cand)
+                } else {
+                    prefilter_row_generic::<false>(self, u, cand)
+                };
+                let au = self.associations[u];
+                for &v in &cand[..n] {
+                    if let Some(x) = self.test.test_associations(
+                        self.prior,
+                        self.query,
+                        au,
+                        self.associations[v as usize],
+                    ) {
+                        nbrs.push(v);
+                        xs.push(x);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Portable prefilter: writes every `v > u` that passes into `cand`, returns how many.
+/// Blocks of [`LANES`] lanes are written branch-free so that they vectorise.
+fn prefilter_row_generic<const GRAVITY: bool>(d: &ScanData, u: usize, cand: &mut [u32]) -> usize {
+    let m = d.px.len();
+    let pre = d.pre;
+    let (ax, ay, az) = (d.px[u], d.py[u], d.pz[u]);
+    let (bx, by, bz) = (d.qx[u], d.qy[u], d.qz[u]);
+    let lane_pass = |px: f32, py: f32, pz: f32, qx: f32, qy: f32, qz: f32| -> bool {
+        let dx = ax - px;
+        let dy = ay - py;
+        let dza = az - pz;
+        let ex = bx - qx;
+        let ey = by - qy;
+        let dzb = bz - qz;
+        let mut a = dx * dx + dy * dy;
+        let mut b = ex * ex + ey * ey;
+        if !GRAVITY {
+            a += dza * dza;
+            b += dzb * dzb;
+        }
+        let diff = a - b;
+        let ok_d = diff * diff <= pre.k * (a + b) + pre.k_abs;
+        let ok_z = !GRAVITY || (dza - dzb).abs() <= pre.eps_z;
+        ok_d & ok_z
     };
+    let mut n = 0;
+    let mut v0 = u + 1;
     while v0 + LANES <= m {
-        let px = &soa.px[v0..v0 + LANES];
-        let py = &soa.py[v0..v0 + LANES];
-        let pz = &soa.pz[v0..v0 + LANES];
-        let qx = &soa.qx[v0..v0 + LANES];
-        let qy = &soa.qy[v0..v0 + LANES];
-        let qz = &soa.qz[v0..v0 + LANES];
+        let px = &d.px[v0..v0 + LANES];
+        let py = &d.py[v0..v0 + LANES];
+        let pz = &d.pz[v0..v0 + LANES];
+        let qx = &d.qx[v0..v0 + LANES];
+        let qy = &d.qy[v0..v0 + LANES];
+        let qz = &d.qz[v0..v0 + LANES];
         let mut pass = [0u8; LANES];
         for l in 0..LANES {
-            let dx = ax - px[l];
-            let dy = ay - py[l];
-            let dza = az - pz[l];
-            let ex = bx - qx[l];
-            let ey = by - qy[l];
-            let dzb = bz - qz[l];
-            let mut a = dx * dx + dy * dy;
-            let mut b = ex * ex + ey * ey;
-            if !GRAVITY {
-                a += dza * dza;
-                b += dzb * dzb;
-            }
-            let d = a - b;
-            let ok_d = d * d <= pre.k * (a + b) + pre.k_abs;
-            let ok_z = !GRAVITY || (dza - dzb).abs() <= pre.eps_z;
-            pass[l] = (ok_d & ok_z) as u8;
+            pass[l] = lane_pass(px[l], py[l], pz[l], qx[l], qy[l], qz[l]) as u8;
         }
         if u64::from_ne_bytes(pass) != 0 {
             for (l, &p) in pass.iter().enumerate() {
                 if p != 0 {
-                    out.push((v0 + l) as u32);
+                    cand[n] = (v0 + l) as u32;
+                    n += 1;
                 }
             }
         }
         v0 += LANES;
     }
     for v in v0..m {
-        if lane_pass(v) {
-            out.push(v as u32);
+        if lane_pass(d.px[v], d.py[v], d.pz[v], d.qx[v], d.qy[v], d.qz[v]) {
+            cand[n] = v as u32;
+            n += 1;
         }
     }
+    n
 }

@@ -283,3 +283,37 @@ fn auto_strategy_choice() {
         BuildStrategy::PairwiseScan
     );
 }
+
+#[test]
+fn portable_and_simd_kernels_agree() {
+    let kernel = scan::Kernel::detect();
+    for (p, inv) in [
+        (
+            problem(
+                150,
+                Mode::Random {
+                    n_assoc: 1503,
+                    outliers: 0.9,
+                },
+                0.05,
+                false,
+                21,
+            ),
+            distance(0.3, 0.1),
+        ),
+        (problem(23, Mode::All, 0.02, true, 22), gravity(0.1, 0.04)),
+    ] {
+        let t = PairTest::new(&inv).unwrap();
+        let a = scan::build(
+            &p.prior,
+            &p.query,
+            &p.associations,
+            &t,
+            scan::Kernel::Portable,
+        );
+        let b = scan::build(&p.prior, &p.query, &p.associations, &t, kernel);
+        assert!(a.num_edges() > 0);
+        assert_eq!(a, b);
+        assert_eq!(a, brute_force(&p.prior, &p.query, &p.associations, &inv));
+    }
+}
