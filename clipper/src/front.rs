@@ -61,11 +61,41 @@ impl Peel {
         }
         let k = k as u32;
         self.stack.clear();
+        let mut removed_work = 0usize;
         for v in 0..self.alive.len() {
             if self.alive[v] && self.deg[v] < k {
                 self.alive[v] = false;
                 self.stack.push(v as u32);
+                removed_work += graph.degree(v);
             }
+        }
+        // When the survivors' rows are shorter than the removed ones, recount the survivors'
+        // degrees instead of decrementing through the removed rows.
+        let survivors = self.alive_count - self.stack.len();
+        let survivor_work: usize = (0..self.alive.len())
+            .filter(|&v| self.alive[v])
+            .map(|v| graph.degree(v))
+            .sum();
+        if survivor_work < removed_work {
+            self.alive_count = survivors;
+            self.stack.clear();
+            for v in 0..self.alive.len() {
+                if self.alive[v] {
+                    self.deg[v] = graph
+                        .neighbors(v)
+                        .iter()
+                        .filter(|&&u| self.alive[u as usize])
+                        .count() as u32;
+                }
+            }
+            for v in 0..self.alive.len() {
+                if self.alive[v] && self.deg[v] < k {
+                    self.alive[v] = false;
+                    self.stack.push(v as u32);
+                }
+            }
+            // the rows of vertices removed now are decremented below as usual; deg of the
+            // vertices removed in the first batch is no longer needed
         }
         while let Some(v) = self.stack.pop() {
             self.alive_count -= 1;
@@ -91,8 +121,8 @@ pub(crate) fn k_core(graph: &ConsistencyGraph, k: usize) -> Vec<bool> {
 }
 
 /// Greedy clique plus certification by peeling (see the module docs). Tries at most
-/// `max_starts` start vertices (0: no limit) and stops early once its work exceeds a few
-/// passes over the graph.
+/// `max_starts` start vertices (0: no limit) and stops early once its work exceeds about one
+/// pass over the graph.
 pub(crate) fn greedy_front(graph: &ConsistencyGraph, max_starts: usize) -> Front {
     let n = graph.num_vertices();
     if n == 0 {
@@ -108,7 +138,7 @@ pub(crate) fn greedy_front(graph: &ConsistencyGraph, max_starts: usize) -> Front
             .cmp(&graph.degree(a as usize))
             .then(a.cmp(&b))
     });
-    let budget = 4 * (graph.all_neighbors().len() + n) as u64;
+    let budget = (graph.all_neighbors().len() + n) as u64;
     let mut spent = 0u64;
     let mut peel = Peel::new(graph);
     let mut best: Vec<u32> = Vec::new();

@@ -171,6 +171,25 @@ unsafe fn prefilter<const GRAVITY: bool>(d: &ScanData, u: usize, cand: &mut [u32
     n
 }
 
+/// `LEFT_PACK4[mask]`: the 4-lane version of [`LEFT_PACK`].
+static LEFT_PACK4: [[u32; 4]; 16] = {
+    let mut t = [[0u32; 4]; 16];
+    let mut mask = 0;
+    while mask < 16 {
+        let mut n = 0;
+        let mut lane = 0;
+        while lane < 4 {
+            if mask & (1 << lane) != 0 {
+                t[mask][n] = lane as u32;
+                n += 1;
+            }
+            lane += 1;
+        }
+        mask += 1;
+    }
+    t
+};
+
 #[inline(never)]
 #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
 unsafe fn exact<const GRAVITY: bool>(
@@ -192,7 +211,16 @@ unsafe fn exact<const GRAVITY: bool>(
     let eps_z = _mm256_set1_pd(t.epsilon_z);
     let inv = _mm256_set1_pd(t.inv_two_sigma_sq);
     let inv_z = _mm256_set1_pd(t.inv_two_sigma_z_sq);
+    let zero = _mm256_setzero_pd();
     let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fff_ffff_ffff_ffff));
+    // Accepted lanes are left-packed into spare capacity: every step writes 4 slots at
+    // `len`, and `len` grows by at most 4 per step, so `cand.len() + 4` slots suffice.
+    nbrs.reserve(cand.len() + 4);
+    xs.reserve(cand.len() + 4);
+    let mut len = nbrs.len();
+    debug_assert_eq!(len, xs.len());
+    let nb_ptr = nbrs.as_mut_ptr();
+    let x_ptr = xs.as_mut_ptr();
     let mut k = 0;
     while k < cand.len() {
         let valid = (cand.len() - k).min(4);
@@ -224,23 +252,32 @@ unsafe fn exact<const GRAVITY: bool>(
             ok = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_LT_OQ>(cz, eps_z));
             x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_mul_pd(cz, cz), inv_z));
         }
-        let mut bits = _mm256_movemask_pd(ok) as u32;
-        if bits != 0 {
-            let mut xf = [0f32; 4];
-            _mm_storeu_ps(xf.as_mut_ptr(), _mm256_cvtpd_ps(x));
-            bits &= (1u32 << valid) - 1;
-            while bits != 0 {
-                let lane = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let v = idx4[lane];
-                let av = d.associations[v as usize];
-                // one-to-one rule
-                if av.prior != au.prior && av.query != au.query {
-                    nbrs.push(v);
-                    xs.push(xf[lane]);
-                }
+        let mut bits = (_mm256_movemask_pd(ok) as u32) & ((1u32 << valid) - 1);
+        // One-to-one rule: a shared point makes one of the two lengths exactly zero, so
+        // only those lanes need the index check.
+        let zero_len = _mm256_or_pd(
+            _mm256_cmp_pd::<_CMP_EQ_OQ>(sa, zero),
+            _mm256_cmp_pd::<_CMP_EQ_OQ>(sb, zero),
+        );
+        let mut suspicious = bits & (_mm256_movemask_pd(zero_len) as u32);
+        while suspicious != 0 {
+            let lane = suspicious.trailing_zeros();
+            suspicious &= suspicious - 1;
+            let av = d.associations[idx4[lane as usize] as usize];
+            if av.prior == au.prior || av.query == au.query {
+                bits &= !(1 << lane);
             }
         }
+        let perm = _mm_loadu_si128(LEFT_PACK4[bits as usize].as_ptr() as *const __m128i);
+        let packed_idx = _mm_castps_si128(_mm_permutevar_ps(_mm_castsi128_ps(idx), perm));
+        let packed_x = _mm_permutevar_ps(_mm256_cvtpd_ps(x), perm);
+        // SAFETY: len + 4 <= old len + cand.len() + 4 <= capacity (reserved above).
+        _mm_storeu_si128(nb_ptr.add(len) as *mut __m128i, packed_idx);
+        _mm_storeu_ps(x_ptr.add(len), packed_x);
+        len += bits.count_ones() as usize;
         k += 4;
     }
+    // SAFETY: the first `len` slots are initialised (written above or before the call).
+    nbrs.set_len(len);
+    xs.set_len(len);
 }
