@@ -85,6 +85,15 @@ pub struct CliqueConfig {
     /// Use the exact maximum-clique solver when the pruned graph is at most this large
     /// (vertices); 0 disables it.
     pub exact_max_vertices: usize,
+    /// Relaxation: most penalty increases (outer iterations). A clear clique converges in
+    /// one or two; a graph without one (the later hypothesis rounds) would otherwise spend
+    /// hundreds proving it.
+    pub max_outer_iterations: usize,
+    /// Relaxation: most gradient steps per outer iteration.
+    pub max_inner_iterations: usize,
+    /// Edges sampled by the edge-seeded clique search, which catches a true clique the
+    /// relaxation misses in dense (6-DOF) graphs; 0 disables it.
+    pub seeded_samples: usize,
 }
 
 impl Default for CliqueConfig {
@@ -94,6 +103,9 @@ impl Default for CliqueConfig {
             hypotheses: 4,
             min_clique: 4,
             exact_max_vertices: 3000,
+            max_outer_iterations: 20,
+            max_inner_iterations: 50,
+            seeded_samples: 40_000,
         }
     }
 }

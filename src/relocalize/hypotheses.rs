@@ -142,10 +142,25 @@ pub fn pair_of(a: &Association, prior: &PreparedMap, query: &PreparedMap) -> Wei
 fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig) -> CliqueSolution {
     let relaxation = DensestCliqueConfig {
         seed: config.clique.seed,
+        max_outer_iterations: config.clique.max_outer_iterations,
+        max_inner_iterations: config.clique.max_inner_iterations,
         ..DensestCliqueConfig::default()
     };
-    let heuristic = densest_clique(graph, &relaxation);
-    if heuristic.certified_maximum || config.clique.exact_max_vertices == 0 {
+    let mut heuristic = densest_clique(graph, &relaxation);
+    if heuristic.certified_maximum {
+        return heuristic;
+    }
+    if config.clique.seeded_samples > 0 {
+        let seeded = super::seeded::edge_seeded_clique(
+            graph,
+            config.clique.seeded_samples,
+            config.clique.seed,
+        );
+        if seeded.len() > heuristic.vertices.len() {
+            heuristic.vertices = seeded;
+        }
+    }
+    if config.clique.exact_max_vertices == 0 {
         return heuristic;
     }
     let limits = MaxCliqueLimits {
