@@ -8,8 +8,10 @@ use segloc::relocalize::RelocalizeConfig;
 
 fn run(dof: Dof, trials: usize) -> segloc::eval::lunarloc::EvalReport {
     let data = common::data_dir().expect("data");
-    let mut config = RelocalizeConfig::default();
-    config.dof = Some(dof);
+    let config = RelocalizeConfig {
+        dof: Some(dof),
+        ..RelocalizeConfig::default()
+    };
     let options = EvalOptions {
         pairs: PAPER_PAIRS.to_vec(),
         trials,

@@ -43,7 +43,7 @@ pub fn align_rigid(pairs: &[WeightedPair]) -> Option<Isometry3<f64>> {
     singular
         .as_mut_slice()
         .sort_by(|a, b| b.partial_cmp(a).unwrap_or(std::cmp::Ordering::Equal));
-    if !(singular[1] > 1e-12 * singular[0].max(1e-300)) {
+    if singular[1].is_nan() || singular[1] <= 1e-12 * singular[0].max(1e-300) {
         return None;
     }
     let sign = (u * v_t).determinant().signum();

@@ -69,10 +69,7 @@ mod tests {
                 let step =
                     Isometry3::new(xi.fixed_rows::<3>(3).into(), xi.fixed_rows::<3>(0).into());
                 let plus = pair.p_prior - (truth * step) * pair.p_query;
-                let minus_step = Isometry3::new(
-                    (-xi.fixed_rows::<3>(3)).into(),
-                    (-xi.fixed_rows::<3>(0)).into(),
-                );
+                let minus_step = Isometry3::new(-xi.fixed_rows::<3>(3), -xi.fixed_rows::<3>(0));
                 let minus = pair.p_prior - (truth * minus_step) * pair.p_query;
                 jac.set_column(k, &((plus - minus) / (2.0 * h)));
             }

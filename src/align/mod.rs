@@ -78,7 +78,7 @@ pub(crate) fn weighted_centroids(
         c_prior += pair.weight * pair.p_prior.coords;
         c_query += pair.weight * pair.p_query.coords;
     }
-    if !(w_sum > 0.0) || !w_sum.is_finite() {
+    if w_sum.is_nan() || w_sum <= 0.0 || !w_sum.is_finite() {
         return None;
     }
     Some((

@@ -35,7 +35,8 @@ pub fn align_yaw(pairs: &[WeightedPair]) -> Option<Isometry3<f64>> {
         cos_sum += pair.weight * (b.x * a.x + b.y * a.y);
         scale += pair.weight * (a.x * a.x + a.y * a.y + b.x * b.x + b.y * b.y);
     }
-    if !(sin_sum.hypot(cos_sum) > 1e-12 * scale.max(1e-300)) {
+    let magnitude = sin_sum.hypot(cos_sum);
+    if magnitude.is_nan() || magnitude <= 1e-12 * scale.max(1e-300) {
         return None;
     }
     let yaw = sin_sum.atan2(cos_sum);
