@@ -2,9 +2,10 @@
 //! (Tomita's MCQ/MCS with San Segundo's bit-parallel colouring, BBMC).
 
 use crate::core::core_decomposition;
+use crate::densest::polish;
 use crate::front::{greedy_front, k_core};
 use crate::greedy::greedy_colouring_bound;
-use crate::{ClipperError, CliqueSolution, ConsistencyGraph};
+use crate::{ClipperError, CliqueSolution, ConsistencyGraph, DensestCliqueConfig};
 
 /// Limits of [`max_clique`].
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -26,6 +27,10 @@ impl Default for MaxCliqueLimits {
 }
 
 /// Finds a maximum clique and proves it maximum.
+///
+/// Among maximum cliques that differ by swapping one or two members, the heavier is
+/// preferred (the weighted polish of [`crate::densest_clique`]); otherwise any maximum clique
+/// may be returned.
 ///
 /// A greedy clique (by degeneracy order) gives a lower bound; if it meets max core + 1 it is
 /// returned at once. Otherwise vertices whose core number + 1 does not exceed it are pruned and
@@ -60,6 +65,10 @@ pub fn max_clique(
         s.upper_bound = s.vertices.len();
         s.pruned_vertices = pruned;
         s.search_nodes = nodes;
+        // among maximum cliques, prefer a heavier one that swaps one or two members
+        let mut s = polish(graph, s, &DensestCliqueConfig::default());
+        s.outer_iterations = 0;
+        s.inner_iterations = 0;
         s
     };
     if front.certified {

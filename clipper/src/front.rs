@@ -17,6 +17,9 @@ pub(crate) struct Front {
     pub clique: Vec<u32>,
     /// True when no clique larger than `clique` exists (its `|clique|`-core is empty).
     pub certified: bool,
+    /// Membership mask of the `|clique|`-core: the only vertices that can lie in a larger
+    /// clique (all false when certified).
+    pub larger_core: Vec<bool>,
 }
 
 /// Peeling state: which vertices survive and their degrees among survivors.
@@ -129,6 +132,7 @@ pub(crate) fn greedy_front(graph: &ConsistencyGraph, max_starts: usize) -> Front
         return Front {
             clique: Vec::new(),
             certified: true,
+            larger_core: Vec::new(),
         };
     }
     let mut starts: Vec<u32> = (0..n as u32).collect();
@@ -164,6 +168,7 @@ pub(crate) fn greedy_front(graph: &ConsistencyGraph, max_starts: usize) -> Front
                 return Front {
                     clique: best,
                     certified: true,
+                    larger_core: peel.alive,
                 };
             }
         }
@@ -177,6 +182,7 @@ pub(crate) fn greedy_front(graph: &ConsistencyGraph, max_starts: usize) -> Front
     Front {
         clique: best,
         certified,
+        larger_core: peel.alive,
     }
 }
 

@@ -36,6 +36,10 @@ pub struct DensestCliqueConfig {
     pub support_tolerance: f64,
     /// Maximum number of start vertices of the greedy clique heuristic (0: no limit).
     pub max_greedy_starts: usize,
+    /// Polish the final clique by weight: rerun the relaxation on it plus the vertices
+    /// adjacent to all but one or two of its members, and take the result when it is as
+    /// large and heavier (resolves swapped associations among same-size cliques).
+    pub polish: bool,
 }
 
 impl Default for DensestCliqueConfig {
@@ -52,6 +56,7 @@ impl Default for DensestCliqueConfig {
             max_line_search_steps: 40,
             support_tolerance: 1e-9,
             max_greedy_starts: 0,
+            polish: true,
         }
     }
 }
@@ -94,14 +99,17 @@ impl CliqueSolution {
 ///
 /// 1. Core numbers; a greedy clique by degeneracy order (lower bound); upper bound
 ///    max core + 1. If they meet, the greedy clique is certified maximum and returned.
-/// 2. Vertices with core number + 1 below the greedy size are pruned; a greedy colouring of
-///    the rest tightens the upper bound (and may certify).
+/// 2. Otherwise a greedy colouring of the greedy size's core (the only place a larger clique
+///    can be) tightens the upper bound and may certify. Failing that, vertices with core
+///    number + 1 below the greedy size are pruned.
 /// 3. On each connected component of the pruned graph that could hold a clique at least as
 ///    large as the greedy one, the relaxation runs from a seeded random start; its support
 ///    is verified as a clique (repaired greedily if the outer loop ran out) and extended to a
 ///    maximal clique.
 /// 4. The candidate (greedy or relaxation) with the largest objective wins (ties: larger,
 ///    then lexicographically smaller).
+/// 5. Polish (see [`DensestCliqueConfig::polish`]): same-size alternatives that swap one or
+///    two members are weighed by one more relaxation run on the clique's neighbourhood.
 ///
 /// ```
 /// use segloc_clipper::{densest_clique, ConsistencyGraph, DensestCliqueConfig};
@@ -140,22 +148,27 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
     if front.certified {
         best.upper_bound = lb;
         best.certified_maximum = true;
-        return best;
+        return polish(graph, best, config);
     }
+    // A larger clique lies in the lb-core: bound it by core number and greedy colouring.
+    let (strict, _) = graph.induced_subgraph(&front.larger_core);
+    let strict_cd = core_decomposition(&strict);
+    let max_core = strict_cd.core.iter().copied().max().unwrap_or(0) as usize;
+    let colours = greedy_colouring_bound(&strict, &strict_cd.order);
+    best.pruned_vertices = n - strict.num_vertices();
+    if colours <= lb {
+        best.upper_bound = lb;
+        best.certified_maximum = true;
+        return polish(graph, best, config);
+    }
+    let ub = (max_core + 1).min(colours);
+    best.upper_bound = ub;
+    drop(strict);
     // Vertices that can lie in a clique of size >= lb: the (lb - 1)-core.
     let keep = k_core(graph, lb.saturating_sub(1));
     let (sub, old_of_new) = graph.induced_subgraph(&keep);
-    let pruned = n - sub.num_vertices();
+    best.pruned_vertices = n - sub.num_vertices();
     let sub_cd = core_decomposition(&sub);
-    // The maximum core lies inside the (lb - 1)-core, so this is the global max core + 1.
-    let ub_core = sub_cd.core.iter().copied().max().unwrap_or(0) as usize + 1;
-    let ub = ub_core.min(greedy_colouring_bound(&sub, &sub_cd.order));
-    best.upper_bound = ub;
-    best.pruned_vertices = pruned;
-    if lb >= ub {
-        best.certified_maximum = true;
-        return best;
-    }
 
     let (mut outer, mut inner) = (0, 0);
     for (index, comp) in components(&sub).into_iter().enumerate() {
@@ -190,6 +203,54 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
     best.outer_iterations = outer;
     best.inner_iterations = inner;
     best.certified_maximum = best.vertices.len() >= ub;
+    polish(graph, best, config)
+}
+
+/// Weighted polish of a clique `C` of size `k`: the relaxation runs once more on `C` plus the
+/// vertices adjacent to at least `k - 2` of its members (where same-size alternatives that
+/// swap one or two members live), and its clique replaces `C` when it is at least as large
+/// and heavier. Keeps certification (the size never drops).
+pub(crate) fn polish(
+    graph: &ConsistencyGraph,
+    mut best: CliqueSolution,
+    config: &DensestCliqueConfig,
+) -> CliqueSolution {
+    let k = best.vertices.len();
+    if !config.polish || k < 3 {
+        return best;
+    }
+    let n = graph.num_vertices();
+    let mut count = vec![0u32; n];
+    let mut keep = vec![false; n];
+    for &c in &best.vertices {
+        keep[c as usize] = true;
+        for &x in graph.neighbors(c as usize) {
+            count[x as usize] += 1;
+        }
+    }
+    let mut extra = 0usize;
+    for x in 0..n {
+        if !keep[x] && count[x] as usize + 2 >= k {
+            keep[x] = true;
+            extra += 1;
+        }
+    }
+    if extra == 0 {
+        return best;
+    }
+    let (local, old_of_new) = graph.induced_subgraph(&keep);
+    let out = relax(&local, config, config.seed ^ 0x0B0F_F1CE);
+    best.outer_iterations += out.outer_iterations;
+    best.inner_iterations += out.inner_iterations;
+    let mapped: Vec<u32> = support_clique(&local, &out.u)
+        .iter()
+        .map(|&v| old_of_new[v as usize])
+        .collect();
+    let candidate = CliqueSolution::new(graph, extend_to_maximal(graph, &mapped));
+    if candidate.vertices.len() >= k && candidate.objective > best.objective {
+        best.vertices = candidate.vertices;
+        best.objective = candidate.objective;
+    }
     best
 }
 
