@@ -82,17 +82,20 @@ pub struct CliqueConfig {
     pub hypotheses: usize,
     /// Cliques smaller than this are not worth a hypothesis.
     pub min_clique: usize,
-    /// Use the exact maximum-clique solver when the pruned graph is at most this large
-    /// (vertices); 0 disables it.
+    /// Use the exact maximum-clique solver when the core-pruned graph is at most this large
+    /// (vertices).
     pub exact_max_vertices: usize,
+    /// Branch-and-bound nodes after which the exact solver gives up.
+    pub exact_max_nodes: u64,
     /// Relaxation: most penalty increases (outer iterations). A clear clique converges in
     /// one or two; a graph without one (the later hypothesis rounds) would otherwise spend
     /// hundreds proving it.
     pub max_outer_iterations: usize,
     /// Relaxation: most gradient steps per outer iteration.
     pub max_inner_iterations: usize,
-    /// Edges sampled by the edge-seeded clique search, which catches a true clique the
-    /// relaxation misses in dense (6-DOF) graphs; 0 disables it.
+    /// Most edges sampled by the edge-seeded clique search, which catches a true clique the
+    /// relaxation misses in dense (6-DOF) graphs (it stops earlier once a larger clique
+    /// would have been found with probability 0.999).
     pub seeded_samples: usize,
 }
 
@@ -103,6 +106,7 @@ impl Default for CliqueConfig {
             hypotheses: 4,
             min_clique: 4,
             exact_max_vertices: 3000,
+            exact_max_nodes: 200_000,
             max_outer_iterations: 20,
             max_inner_iterations: 50,
             seeded_samples: 40_000,

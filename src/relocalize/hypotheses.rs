@@ -11,7 +11,7 @@ use super::prepared::PreparedMap;
 use super::result::Hypothesis;
 use crate::align::{align, refine, Dof, WeightedPair};
 use segloc_clipper::{
-    densest_clique, max_clique, Association, CliqueSolution, ConsistencyGraph, DensestCliqueConfig,
+    core_numbers, densest_clique, max_clique, Association, ConsistencyGraph, DensestCliqueConfig,
     MaxCliqueLimits,
 };
 use std::time::Instant;
@@ -29,7 +29,9 @@ pub struct HypothesisSet {
     pub alignment_ms: f64,
 }
 
-/// Extract up to `config.clique.hypotheses` hypotheses from `graph`.
+/// Extract up to `config.clique.hypotheses` hypotheses from `graph`: the best clique the
+/// solvers find, then its rivals — large cliques among the associations its transform
+/// does not explain, from one pass of the edge-seeded search.
 pub fn generate_hypotheses(
     graph: &ConsistencyGraph,
     associations: &[Association],
@@ -44,87 +46,129 @@ pub fn generate_hypotheses(
         clique_ms: 0.0,
         alignment_ms: 0.0,
     };
+    let started = Instant::now();
+    let first = solve_clique(graph, config, true);
+    set.clique_ms += ms_since(started);
+    set.largest_clique = first.len();
+    if first.len() < config.clique.min_clique {
+        return set;
+    }
     let mut keep = vec![true; associations.len()];
-    for round in 0..config.clique.hypotheses.max(1) {
-        let started = Instant::now();
-        let (subgraph, to_original) = if round == 0 {
-            (graph.clone(), (0..associations.len() as u32).collect())
-        } else {
-            graph.induced_subgraph(&keep)
-        };
-        if subgraph.num_vertices() == 0 {
-            break;
+    let started = Instant::now();
+    let clique: Vec<usize> = first.iter().map(|&v| v as usize).collect();
+    set.hypotheses.extend(examine(
+        &clique,
+        associations,
+        prior,
+        query,
+        dof,
+        config,
+        &mut keep,
+    ));
+    set.alignment_ms += ms_since(started);
+    if config.clique.hypotheses <= 1 {
+        return set;
+    }
+
+    let started = Instant::now();
+    let (rest, to_original) = graph.induced_subgraph(&keep);
+    let search = super::seeded::SeededSearch {
+        max_samples: config.clique.seeded_samples,
+        miss_probability: 1e-3,
+        seed: config.clique.seed ^ 0x5eed,
+        // A rival with fewer than half the winner's associations cannot make the answer
+        // ambiguous (see `VerificationConfig::max_runner_up_ratio`).
+        min_size: config.clique.min_clique.max(first.len().div_ceil(2)),
+    };
+    let rivals = super::seeded::edge_seeded_cliques(&rest, &search, config.clique.hypotheses - 1);
+    set.clique_ms += ms_since(started);
+    let started = Instant::now();
+    for rival in rivals {
+        if rival.len() < config.clique.min_clique {
+            continue;
         }
-        let clique: Vec<usize> = solve_clique(&subgraph, config)
-            .vertices
+        let clique: Vec<usize> = rival
             .iter()
             .map(|&v| to_original[v as usize] as usize)
             .collect();
-        set.clique_ms += started.elapsed().as_secs_f64() * 1e3;
-        set.largest_clique = set.largest_clique.max(clique.len());
-        if clique.len() < config.clique.min_clique {
-            break;
-        }
+        set.hypotheses.extend(examine(
+            &clique,
+            associations,
+            prior,
+            query,
+            dof,
+            config,
+            &mut keep,
+        ));
+    }
+    set.alignment_ms += ms_since(started);
+    set
+}
 
-        let started = Instant::now();
-        let pairs: Vec<WeightedPair> = clique
-            .iter()
-            .map(|&k| pair_of(&associations[k], prior, query))
-            .collect();
-        for &k in &clique {
+/// Align a clique, refine its transform over all landmarks, and mark in `keep` the
+/// associations the transform explains.
+fn examine(
+    clique: &[usize],
+    associations: &[Association],
+    prior: &PreparedMap,
+    query: &PreparedMap,
+    dof: Dof,
+    config: &RelocalizeConfig,
+    keep: &mut [bool],
+) -> Option<Hypothesis> {
+    let pairs: Vec<WeightedPair> = clique
+        .iter()
+        .map(|&k| pair_of(&associations[k], prior, query))
+        .collect();
+    for &k in clique {
+        keep[k] = false;
+    }
+    let initial = align(&pairs, dof)?;
+    let refined = refine(
+        &prior.points,
+        &prior.weights,
+        &query.points,
+        &query.weights,
+        &initial,
+        dof,
+        &config.refine,
+    );
+    let transform = refined.prior_from_query;
+    for (k, a) in associations.iter().enumerate() {
+        let residual =
+            (prior.points[a.prior as usize] - transform * query.points[a.query as usize]).norm();
+        if residual < config.verification.same_hypothesis_m {
             keep[k] = false;
         }
-        let Some(initial) = align(&pairs, dof) else {
-            set.alignment_ms += started.elapsed().as_secs_f64() * 1e3;
-            continue;
-        };
-        let refined = refine(
-            &prior.points,
-            &prior.weights,
-            &query.points,
-            &query.weights,
-            &initial,
-            dof,
-            &config.refine,
-        );
-        let transform = refined.prior_from_query;
-        // Everything this transform explains is spent: the next round looks elsewhere.
-        for (k, a) in associations.iter().enumerate() {
-            let residual = (prior.points[a.prior as usize]
-                - transform * query.points[a.query as usize])
-                .norm();
-            if residual < config.verification.same_hypothesis_m {
-                keep[k] = false;
-            }
-        }
-        let inlier_prior: Vec<_> = refined
+    }
+    let inlier_prior: Vec<_> = refined
+        .inliers
+        .iter()
+        .map(|&(i, _)| prior.points[i as usize])
+        .collect();
+    let rmse_m = if refined.residuals_m.is_empty() {
+        f64::INFINITY
+    } else {
+        (refined.residuals_m.iter().map(|r| r * r).sum::<f64>() / refined.residuals_m.len() as f64)
+            .sqrt()
+    };
+    Some(Hypothesis {
+        clique_size: clique.len(),
+        prior_from_query: transform,
+        support_query: refined
             .inliers
             .iter()
-            .map(|&(i, _)| prior.points[i as usize])
-            .collect();
-        let rmse_m = if refined.residuals_m.is_empty() {
-            f64::INFINITY
-        } else {
-            (refined.residuals_m.iter().map(|r| r * r).sum::<f64>()
-                / refined.residuals_m.len() as f64)
-                .sqrt()
-        };
-        set.hypotheses.push(Hypothesis {
-            clique_size: clique.len(),
-            prior_from_query: transform,
-            support_query: refined
-                .inliers
-                .iter()
-                .map(|&(_, j)| query.points[j as usize])
-                .collect(),
-            inlier_count: refined.inliers.len(),
-            inliers: refined.inliers,
-            rmse_m,
-            spread_m: minor_axis_spread(&inlier_prior),
-        });
-        set.alignment_ms += started.elapsed().as_secs_f64() * 1e3;
-    }
-    set
+            .map(|&(_, j)| query.points[j as usize])
+            .collect(),
+        inlier_count: refined.inliers.len(),
+        inliers: refined.inliers,
+        rmse_m,
+        spread_m: minor_axis_spread(&inlier_prior),
+    })
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// The weighted point pair of an association.
@@ -137,40 +181,63 @@ pub fn pair_of(a: &Association, prior: &PreparedMap, query: &PreparedMap) -> Wei
     }
 }
 
-/// The best clique the solvers find: the exact maximum clique when the graph is small
-/// enough to certify, else the densest-clique relaxation.
-fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig) -> CliqueSolution {
-    let relaxation = DensestCliqueConfig {
-        seed: config.clique.seed,
-        max_outer_iterations: config.clique.max_outer_iterations,
-        max_inner_iterations: config.clique.max_inner_iterations,
-        ..DensestCliqueConfig::default()
-    };
-    let mut heuristic = densest_clique(graph, &relaxation);
-    if heuristic.certified_maximum {
-        return heuristic;
-    }
-    if config.clique.seeded_samples > 0 {
-        let seeded = super::seeded::edge_seeded_clique(
-            graph,
-            config.clique.seeded_samples,
-            config.clique.seed,
-        );
-        if seeded.len() > heuristic.vertices.len() {
-            heuristic.vertices = seeded;
-        }
-    }
-    if config.clique.exact_max_vertices == 0 {
-        return heuristic;
-    }
+/// The largest clique the solvers find, as sorted vertex indices of `graph`.
+///
+/// 1. The exact solver's front: a greedy clique that often meets the upper bound at once
+///    (certified), or a core-pruned graph small enough to search exactly.
+/// 2. Otherwise the edge-seeded search ([`super::seeded`]): its clique is a lower bound,
+///    so only vertices whose core number reaches it can be in a larger clique; the graph
+///    pruned to them is searched exactly when small enough, else — for the first
+///    hypothesis only — by the densest-clique relaxation. Later rounds look for rivals of
+///    the first hypothesis; the seeded search's answer is enough there.
+fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig, relax: bool) -> Vec<u32> {
     let limits = MaxCliqueLimits {
         max_vertices: config.clique.exact_max_vertices,
-        ..MaxCliqueLimits::default()
+        max_nodes: config.clique.exact_max_nodes,
     };
-    match max_clique(graph, &limits) {
-        Ok(exact) if exact.vertices.len() > heuristic.vertices.len() => exact,
-        _ => heuristic,
+    if let Ok(exact) = max_clique(graph, &limits) {
+        return exact.vertices;
     }
+    let search = super::seeded::SeededSearch {
+        max_samples: config.clique.seeded_samples,
+        miss_probability: 1e-3,
+        seed: config.clique.seed,
+        min_size: config.clique.min_clique,
+    };
+    let mut best = super::seeded::edge_seeded_clique(graph, &search);
+    let lower_bound = best.len() as u32;
+    let keep: Vec<bool> = core_numbers(graph)
+        .iter()
+        .map(|&core| core >= lower_bound.max(1))
+        .collect();
+    let (pruned, to_graph) = graph.induced_subgraph(&keep);
+    if pruned.num_vertices() <= best.len() {
+        return best;
+    }
+    let found = match max_clique(&pruned, &limits) {
+        Ok(exact) => exact,
+        // The relaxation is the last resort: when the seeded search found nothing worth a
+        // hypothesis.
+        Err(_) if !relax || best.len() >= config.clique.min_clique => return best,
+        Err(_) => {
+            let relaxation = DensestCliqueConfig {
+                seed: config.clique.seed,
+                max_outer_iterations: config.clique.max_outer_iterations,
+                max_inner_iterations: config.clique.max_inner_iterations,
+                ..DensestCliqueConfig::default()
+            };
+            densest_clique(&pruned, &relaxation)
+        }
+    };
+    if found.vertices.len() > best.len() {
+        best = found
+            .vertices
+            .iter()
+            .map(|&v| to_graph[v as usize])
+            .collect();
+        best.sort_unstable();
+    }
+    best
 }
 
 /// Standard deviation (m) of points along the minor axis of their horizontal scatter.

@@ -17,34 +17,112 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use segloc_clipper::ConsistencyGraph;
 
-/// The largest clique found from `samples` random edges (sorted vertex indices), or an
-/// empty vector for a graph without edges.
-pub fn edge_seeded_clique(graph: &ConsistencyGraph, samples: usize, seed: u64) -> Vec<u32> {
+/// Sampling parameters of [`edge_seeded_clique`].
+#[derive(Clone, Copy, Debug)]
+pub struct SeededSearch {
+    /// Most edges sampled.
+    pub max_samples: usize,
+    /// Probability of missing a larger clique that the stopping rule accepts.
+    pub miss_probability: f64,
+    /// Seed of the sampling.
+    pub seed: u64,
+    /// Cliques smaller than this are of no interest; the stopping rule aims at finding any
+    /// clique of at least this size.
+    pub min_size: usize,
+}
+
+/// The largest clique found from random edges (sorted vertex indices), or an empty vector
+/// for a graph without edges.
+///
+/// Edges are drawn uniformly (a uniform slot of the adjacency). The search stops once so
+/// many edges have been drawn since the last improvement that a clique one larger than
+/// the best, if there were one, would have been hit with probability
+/// `1 − miss_probability`: with k the best size and E edges, after
+/// ln(1/δ) · E / (k(k+1)/2) fruitless draws.
+pub fn edge_seeded_clique(graph: &ConsistencyGraph, search: &SeededSearch) -> Vec<u32> {
+    edge_seeded_cliques(graph, search, 1)
+        .pop()
+        .unwrap_or_default()
+}
+
+/// Up to `count` large, pairwise vertex-disjoint cliques (each sorted), largest first, from
+/// one sampling pass: the rivals of a hypothesis. The stopping rule watches the smallest
+/// clique kept once `count` are kept.
+pub fn edge_seeded_cliques(
+    graph: &ConsistencyGraph,
+    search: &SeededSearch,
+    count: usize,
+) -> Vec<Vec<u32>> {
     let offsets = graph.offsets();
     let ends = graph.all_neighbors();
-    if ends.is_empty() {
+    let n = graph.num_vertices();
+    let count = count.max(1);
+    if ends.is_empty() || n == 0 {
         return Vec::new();
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut best: Vec<u32> = Vec::new();
+    // Row of every edge slot, so that a uniform slot gives a uniform edge.
+    let mut row_of_slot = vec![0u32; ends.len()];
+    for u in 0..n {
+        row_of_slot[offsets[u]..offsets[u + 1]].fill(u as u32);
+    }
+    let edges = ends.len() as f64 / 2.0;
+    let log_miss = (1.0 / search.miss_probability.clamp(1e-12, 0.5)).ln();
+    let mut rng = ChaCha8Rng::seed_from_u64(search.seed);
+    let mut kept: Vec<Vec<u32>> = Vec::new();
     let mut common = Vec::new();
-    for _ in 0..samples {
+    let mut since_improvement = 0usize;
+    for _ in 0..search.max_samples {
+        let floor = if kept.len() < count {
+            search.min_size
+        } else {
+            kept.last().map_or(2, |c| c.len()).max(search.min_size)
+        };
+        let k = floor.max(2) as f64;
+        if since_improvement as f64 > log_miss * edges / (k * (k + 1.0) / 2.0) {
+            break;
+        }
+        since_improvement += 1;
         let slot = rng.random_range(0..ends.len());
-        // The row holding `slot`: the last offset not above it.
-        let u = offsets.partition_point(|&o| o <= slot) - 1;
-        let v = ends[slot] as usize;
+        let (u, v) = (row_of_slot[slot] as usize, ends[slot] as usize);
         intersect(graph.neighbors(u), graph.neighbors(v), &mut common);
-        // Only a neighbourhood that could beat the best clique is worth growing.
-        if common.len() + 2 <= best.len() {
+        // Only a neighbourhood that could beat the smallest kept clique is worth growing.
+        if kept.len() == count && common.len() + 2 <= floor {
             continue;
         }
-        let clique = grow(graph, u as u32, v as u32, &common);
-        if clique.len() > best.len() {
-            best = clique;
+        if common.len() + 2 < search.min_size {
+            continue;
+        }
+        let mut clique = grow(graph, u as u32, v as u32, &common);
+        if clique.len() < search.min_size {
+            continue;
+        }
+        clique.sort_unstable();
+        if keep_clique(&mut kept, clique, count) {
+            since_improvement = 0;
         }
     }
-    best.sort_unstable();
-    best
+    kept
+}
+
+/// Insert `clique` among the kept ones (largest first, pairwise disjoint, at most `count`);
+/// returns whether the kept set changed.
+fn keep_clique(kept: &mut Vec<Vec<u32>>, clique: Vec<u32>, count: usize) -> bool {
+    let overlaps = |other: &Vec<u32>| {
+        let mut common = Vec::new();
+        intersect(other, &clique, &mut common);
+        !common.is_empty()
+    };
+    if kept.iter().any(|c| overlaps(c) && c.len() >= clique.len()) {
+        return false;
+    }
+    if kept.len() == count && kept.last().is_some_and(|c| c.len() >= clique.len()) {
+        return false;
+    }
+    kept.retain(|c| !overlaps(c));
+    let at = kept.partition_point(|c| c.len() >= clique.len());
+    kept.insert(at, clique);
+    kept.truncate(count);
+    true
 }
 
 /// Greedy clique from edge (u, v) inside their common neighbours `candidates`.
@@ -119,8 +197,23 @@ mod tests {
         edges.sort_by_key(|e| (e.0, e.1));
         edges.dedup_by_key(|e| (e.0, e.1));
         let graph = ConsistencyGraph::from_edges(n as usize, &edges).unwrap();
-        let found = edge_seeded_clique(&graph, 20_000, 1);
+        let search = SeededSearch {
+            max_samples: 20_000,
+            miss_probability: 1e-3,
+            seed: 1,
+            min_size: 2,
+        };
+        let found = edge_seeded_clique(&graph, &search);
         assert!(graph.is_clique(&found));
+        let several = edge_seeded_cliques(&graph, &search, 3);
+        assert_eq!(several[0], found);
+        for (a, c) in several.iter().enumerate() {
+            assert!(graph.is_clique(c));
+            for d in &several[a + 1..] {
+                assert!(c.iter().all(|v| !d.contains(v)), "rivals share a vertex");
+                assert!(c.len() >= d.len());
+            }
+        }
         let mut expected = planted.clone();
         expected.sort_unstable();
         assert_eq!(found, expected);
