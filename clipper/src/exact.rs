@@ -66,10 +66,7 @@ pub fn max_clique(
         s.pruned_vertices = pruned;
         s.search_nodes = nodes;
         // among maximum cliques, prefer a heavier one that swaps one or two members
-        let mut s = polish(graph, s, &DensestCliqueConfig::default());
-        s.outer_iterations = 0;
-        s.inner_iterations = 0;
-        s
+        polish(graph, s, &DensestCliqueConfig::default())
     };
     if front.certified {
         return Ok(certified(greedy, 0, 0));

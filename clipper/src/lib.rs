@@ -42,6 +42,7 @@ mod exact;
 mod front;
 mod graph;
 mod greedy;
+mod polish;
 mod relaxation;
 mod rng;
 #[cfg(test)]

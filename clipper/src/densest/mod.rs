@@ -4,6 +4,7 @@
 use crate::core::core_decomposition;
 use crate::front::{greedy_front, k_core};
 use crate::greedy::{extend_to_maximal, greedy_colouring_bound};
+use crate::polish::polish_swaps;
 use crate::relaxation::relax;
 use crate::ConsistencyGraph;
 
@@ -36,10 +37,12 @@ pub struct DensestCliqueConfig {
     pub support_tolerance: f64,
     /// Maximum number of start vertices of the greedy clique heuristic (0: no limit).
     pub max_greedy_starts: usize,
-    /// Polish the final clique by weight: rerun the relaxation on it plus the vertices
-    /// adjacent to all but one or two of its members, and take the result when it is as
-    /// large and heavier (resolves swapped associations among same-size cliques).
+    /// Polish the final clique by local search: swaps of one or two members for outside
+    /// vertices that make it larger or heavier (resolves crossed associations among cliques
+    /// of the same size).
     pub polish: bool,
+    /// Maximum number of polish swaps.
+    pub max_polish_swaps: usize,
 }
 
 impl Default for DensestCliqueConfig {
@@ -57,6 +60,7 @@ impl Default for DensestCliqueConfig {
             support_tolerance: 1e-9,
             max_greedy_starts: 0,
             polish: true,
+            max_polish_swaps: 32,
         }
     }
 }
@@ -108,8 +112,8 @@ impl CliqueSolution {
 ///    maximal clique.
 /// 4. The candidate (greedy or relaxation) with the largest objective wins (ties: larger,
 ///    then lexicographically smaller).
-/// 5. Polish (see [`DensestCliqueConfig::polish`]): same-size alternatives that swap one or
-///    two members are weighed by one more relaxation run on the clique's neighbourhood.
+/// 5. Polish (see [`DensestCliqueConfig::polish`]): swaps of one or two members that make
+///    the clique larger or heavier.
 ///
 /// ```
 /// use segloc_clipper::{densest_clique, ConsistencyGraph, DensestCliqueConfig};
@@ -206,50 +210,26 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
     polish(graph, best, config)
 }
 
-/// Weighted polish of a clique `C` of size `k`: the relaxation runs once more on `C` plus the
-/// vertices adjacent to at least `k - 2` of its members (where same-size alternatives that
-/// swap one or two members live), and its clique replaces `C` when it is at least as large
-/// and heavier. Keeps certification (the size never drops).
+/// Swap polish (see [`crate::polish`]) of the solution's clique when enabled; the size never
+/// drops, so certification stays valid.
 pub(crate) fn polish(
     graph: &ConsistencyGraph,
     mut best: CliqueSolution,
     config: &DensestCliqueConfig,
 ) -> CliqueSolution {
-    let k = best.vertices.len();
-    if !config.polish || k < 3 {
+    if !config.polish {
         return best;
     }
-    let n = graph.num_vertices();
-    let mut count = vec![0u32; n];
-    let mut keep = vec![false; n];
-    for &c in &best.vertices {
-        keep[c as usize] = true;
-        for &x in graph.neighbors(c as usize) {
-            count[x as usize] += 1;
-        }
-    }
-    let mut extra = 0usize;
-    for x in 0..n {
-        if !keep[x] && count[x] as usize + 2 >= k {
-            keep[x] = true;
-            extra += 1;
-        }
-    }
-    if extra == 0 {
+    let Some(polished) = polish_swaps(graph, &best.vertices, config.max_polish_swaps) else {
         return best;
-    }
-    let (local, old_of_new) = graph.induced_subgraph(&keep);
-    let out = relax(&local, config, config.seed ^ 0x0B0F_F1CE);
-    best.outer_iterations += out.outer_iterations;
-    best.inner_iterations += out.inner_iterations;
-    let mapped: Vec<u32> = support_clique(&local, &out.u)
-        .iter()
-        .map(|&v| old_of_new[v as usize])
-        .collect();
-    let candidate = CliqueSolution::new(graph, extend_to_maximal(graph, &mapped));
-    if candidate.vertices.len() >= k && candidate.objective > best.objective {
+    };
+    let candidate = CliqueSolution::new(graph, polished);
+    if candidate.vertices.len() > best.vertices.len()
+        || (candidate.vertices.len() == best.vertices.len() && candidate.objective > best.objective)
+    {
         best.vertices = candidate.vertices;
         best.objective = candidate.objective;
+        best.certified_maximum &= best.vertices.len() <= best.upper_bound;
     }
     best
 }
