@@ -94,6 +94,17 @@ pub(crate) fn build(
     associations: &[Association],
     test: &PairTest,
 ) -> ConsistencyGraph {
+    build_with_table_limit(prior, query, associations, test, DENSE_TABLE_LIMIT)
+}
+
+/// [`build`] with the largest dense lookup table given (above it a hash map is used).
+pub(crate) fn build_with_table_limit(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    associations: &[Association],
+    test: &PairTest,
+    dense_limit: usize,
+) -> ConsistencyGraph {
     let m = associations.len();
     let used_p = UsedPoints::new(prior.len(), associations.iter().map(|a| a.prior));
     let used_q = UsedPoints::new(query.len(), associations.iter().map(|a| a.query));
@@ -116,7 +127,7 @@ pub(crate) fn build(
         block_start[p + 1] += block_start[p];
     }
 
-    let lookup = if np.saturating_mul(nq) <= DENSE_TABLE_LIMIT {
+    let lookup = if np.saturating_mul(nq) <= dense_limit {
         let mut ids = vec![u32::MAX; np * nq];
         for (r, &id) in id_of_rank.iter().enumerate() {
             let a = associations[id as usize];

@@ -317,3 +317,33 @@ fn portable_and_simd_kernels_agree() {
         assert_eq!(a, brute_force(&p.prior, &p.query, &p.associations, &inv));
     }
 }
+
+#[test]
+fn hashed_lookup_and_empty_lists() {
+    let p = problem(
+        80,
+        Mode::Random {
+            n_assoc: 900,
+            outliers: 0.8,
+        },
+        0.05,
+        false,
+        31,
+    );
+    let inv = distance(0.3, 0.1);
+    let t = PairTest::new(&inv).unwrap();
+    let dense = join::build(&p.prior, &p.query, &p.associations, &t);
+    let hashed = join::build_with_table_limit(&p.prior, &p.query, &p.associations, &t, 0);
+    assert_eq!(dense, hashed);
+    assert_eq!(
+        dense,
+        brute_force(&p.prior, &p.query, &p.associations, &inv)
+    );
+    for strategy in [BuildStrategy::Join, BuildStrategy::PairwiseScan] {
+        let g = ConsistencyGraph::build_with(&p.prior, &p.query, &[], &inv, strategy).unwrap();
+        assert_eq!(g.num_vertices(), 0);
+        let one = [Association::new(0, 0)];
+        let g = ConsistencyGraph::build_with(&p.prior, &p.query, &one, &inv, strategy).unwrap();
+        assert_eq!((g.num_vertices(), g.num_edges()), (1, 0));
+    }
+}
