@@ -241,8 +241,8 @@ impl Grower {
             *spent += row.len() as u64;
             self.pdeg[u as usize] = row
                 .iter()
-                .filter(|&&w| self.stamp[w as usize] == cur)
-                .count() as u32;
+                .map(|&w| u32::from(self.stamp[w as usize] == cur))
+                .sum();
             self.count[u as usize] = 0;
         }
         // u can only be in a clique {v, u, ...} of size pdeg(u) + 2
@@ -265,9 +265,8 @@ impl Grower {
                 let row = graph.neighbors(u as usize);
                 *spent += row.len() as u64;
                 for &w in row {
-                    if self.stamp[w as usize] == cur {
-                        self.count[w as usize] += 1;
-                    }
+                    // branch-free; counts of vertices outside the candidate set are unused
+                    self.count[w as usize] += u32::from(self.stamp[w as usize] == cur);
                 }
             }
         }

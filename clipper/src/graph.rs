@@ -394,12 +394,12 @@ impl ConsistencyGraph {
         sorted.dedup();
         let mut sum = 0.0f64;
         for &u in &sorted {
+            // branch-free: non-members contribute zero
             let row_sum: f64 = self
                 .neighbors(u as usize)
                 .iter()
                 .zip(self.weights(u as usize))
-                .filter(|(&x, _)| member[x as usize])
-                .map(|(_, &w)| w as f64)
+                .map(|(&x, &w)| w as f64 * f64::from(u8::from(member[x as usize])))
                 .sum();
             sum += row_sum;
         }

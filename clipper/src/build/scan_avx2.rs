@@ -190,6 +190,10 @@ static LEFT_PACK4: [[u32; 4]; 16] = {
     t
 };
 
+/// Exact `f64` stage on the prefilter's candidates.
+///
+/// # Safety
+/// The CPU must support AVX2, FMA, POPCNT and BMI1.
 #[inline(never)]
 #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
 unsafe fn exact<const GRAVITY: bool>(
