@@ -261,7 +261,29 @@ impl ConsistencyGraph {
 
     /// CSR from the upper triangle given as consecutive runs of rows (see [`UpperRows`]);
     /// the chunks' row counts must add up to `n`.
+    ///
+    /// Row `v` is `[lower part | upper part]`: the lower part (neighbours `u < v`) is the
+    /// transpose of the upper triangle. To keep the scattered writes of the transpose in
+    /// cache, the vertices are split into blocks whose rows fit in a few hundred KB: entries
+    /// are first bucketed by the block of their target row (a few sequential streams), then
+    /// each block's rows are assembled while they are cache-resident. Buckets keep the
+    /// ascending source order, so every row comes out sorted.
     pub(crate) fn from_upper_chunks(n: usize, chunks: &[UpperRows]) -> Self {
+        // where each row's upper part lives
+        let mut row_chunk = Vec::with_capacity(n);
+        let mut row_start = Vec::with_capacity(n);
+        for (ci, c) in chunks.iter().enumerate() {
+            let mut a = 0usize;
+            for &cnt in &c.counts {
+                row_chunk.push(ci as u32);
+                row_start.push(a);
+                a += cnt as usize;
+            }
+        }
+        let mut upper_deg = Vec::with_capacity(n);
+        for c in chunks {
+            upper_deg.extend_from_slice(&c.counts);
+        }
         let mut lower_deg = vec![0u32; n];
         for c in chunks {
             for &v in &c.neighbors {
@@ -270,36 +292,51 @@ impl ConsistencyGraph {
         }
         let mut offsets = Vec::with_capacity(n + 1);
         offsets.push(0usize);
-        let mut u = 0usize;
-        for c in chunks {
-            for &cnt in &c.counts {
-                let last = offsets[u];
-                offsets.push(last + lower_deg[u] as usize + cnt as usize);
-                u += 1;
-            }
+        for u in 0..n {
+            offsets.push(offsets[u] + lower_deg[u] as usize + upper_deg[u] as usize);
         }
         let total = offsets[n];
-        let mut neighbors = vec![0u32; total];
-        let mut weights = vec![0f32; total];
-        // Lower part of each row is filled as rows u = 0, 1, ... are visited (ascending u),
-        // the upper part is copied directly after it.
-        let mut lower_cursor = offsets[..n].to_vec();
+        // ~256 KB of final rows per block
+        const BLOCK_BYTES: usize = 256 * 1024;
+        let n_blocks = (total * 8).div_ceil(BLOCK_BYTES).clamp(1, n.max(1));
+        let block_len = n.div_ceil(n_blocks).max(1);
+        let n_blocks = n.div_ceil(block_len).max(1);
+        // bucket the transposed entries (target v, source u, weight) by target block
+        let mut bucket_len = vec![0usize; n_blocks];
+        for (v, &d) in lower_deg.iter().enumerate() {
+            bucket_len[v / block_len] += d as usize;
+        }
+        let mut buckets: Vec<Vec<(u32, u32, f32)>> =
+            bucket_len.iter().map(|&l| Vec::with_capacity(l)).collect();
         let mut u = 0usize;
         for c in chunks {
             let mut a = 0usize;
             for &cnt in &c.counts {
                 let b = a + cnt as usize;
-                let start = offsets[u] + lower_deg[u] as usize;
-                neighbors[start..start + (b - a)].copy_from_slice(&c.neighbors[a..b]);
-                weights[start..start + (b - a)].copy_from_slice(&c.weights[a..b]);
                 for (&v, &w) in c.neighbors[a..b].iter().zip(&c.weights[a..b]) {
-                    let pos = lower_cursor[v as usize];
-                    lower_cursor[v as usize] = pos + 1;
-                    neighbors[pos] = u as u32;
-                    weights[pos] = w;
+                    buckets[v as usize / block_len].push((v, u as u32, w));
                 }
                 a = b;
                 u += 1;
+            }
+        }
+        let mut neighbors = vec![0u32; total];
+        let mut weights = vec![0f32; total];
+        let mut lower_cursor = offsets[..n].to_vec();
+        for (bi, bucket) in buckets.iter().enumerate() {
+            let (r0, r1) = (bi * block_len, ((bi + 1) * block_len).min(n));
+            for u in r0..r1 {
+                let c = &chunks[row_chunk[u] as usize];
+                let (a, len) = (row_start[u], upper_deg[u] as usize);
+                let start = offsets[u] + lower_deg[u] as usize;
+                neighbors[start..start + len].copy_from_slice(&c.neighbors[a..a + len]);
+                weights[start..start + len].copy_from_slice(&c.weights[a..a + len]);
+            }
+            for &(v, u, w) in bucket {
+                let pos = lower_cursor[v as usize];
+                lower_cursor[v as usize] = pos + 1;
+                neighbors[pos] = u;
+                weights[pos] = w;
             }
         }
         Self {
