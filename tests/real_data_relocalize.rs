@@ -80,3 +80,45 @@ fn paper_pairs_6dof_all_succeed_within_two_centimetres() {
         t.translation_error_m.max
     );
 }
+
+/// Two real traverses cropped to disjoint halves of the site share no boulder: every
+/// attempt must be refused, whatever the transform.
+#[test]
+fn disjoint_real_maps_are_refused() {
+    use rand::SeedableRng;
+    use segloc::eval::lunarloc::random_transform;
+    use segloc::landmarks::{fuse_detections, FusionConfig};
+    use segloc::relocalize::relocalize;
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let read = |n: usize| {
+        segloc_maps::read_lunarloc_traverse(&segloc::eval::traverse_path(&data, n))
+            .expect("traverse")
+    };
+    let fusion = FusionConfig::default();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let mut attempts = 0;
+    for (a, b) in [(7, 13), (13, 15), (10, 13), (4, 15)] {
+        let mut prior = fuse_detections(&read(a).detections(), &fusion);
+        prior.landmarks.retain(|l| l.position.x < -1.0);
+        let mut query = fuse_detections(&read(b).detections(), &fusion);
+        query.landmarks.retain(|l| l.position.x > 1.0);
+        if prior.len() < 10 || query.len() < 10 {
+            continue;
+        }
+        for _ in 0..3 {
+            let truth = random_transform(&mut rng, Dof::Four);
+            let moved = query.transformed(&truth.inverse(), "query");
+            let answer = relocalize(&prior, &moved, &RelocalizeConfig::default()).expect("runs");
+            assert!(
+                !answer.is_accepted(),
+                "({a}, {b}): accepted a transform between disjoint maps ({} / {} landmarks)",
+                prior.len(),
+                moved.len()
+            );
+            attempts += 1;
+        }
+    }
+    assert!(attempts >= 9, "only {attempts} attempts");
+}
