@@ -103,7 +103,13 @@ pub(crate) fn relax(
             inner_iterations: 0,
         };
     }
-    let tol = config.support_tolerance;
+    // tolerate odd settings: negative tolerances act as zero, a bad shrink factor as 0.25
+    let tol = config.support_tolerance.max(0.0);
+    let shrink = if config.step_shrink > 0.0 && config.step_shrink < 1.0 {
+        config.step_shrink
+    } else {
+        0.25
+    };
     let mut p = Products {
         mu: vec![0.0; n],
         du: vec![0.0; n],
@@ -161,7 +167,7 @@ pub(crate) fn relax(
                         break;
                     }
                 }
-                alpha *= config.step_shrink;
+                alpha *= shrink;
             }
             let Some(f_new) = accepted else {
                 break; // no ascent step found: stationary for this d

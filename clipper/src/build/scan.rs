@@ -42,6 +42,9 @@ pub(crate) struct ScanData<'a> {
     pub query: &'a [Point3<f64>],
     pub associations: &'a [Association],
     pub pre: Prefilter,
+    /// False when coordinates or thresholds are too large for the `f32` prefilter; then
+    /// every pair goes to the exact stage.
+    pub prefilter_usable: bool,
     pub test: PairTest,
 }
 
@@ -166,6 +169,7 @@ impl<'a> ScanData<'a> {
                 k_abs: 0.0,
                 eps_z: 0.0,
             },
+            prefilter_usable: true,
             test: *test,
         };
         for a in associations {
@@ -209,6 +213,8 @@ impl<'a> ScanData<'a> {
             k_abs: (eps * eps * eps * eps) as f32,
             eps_z: eps_z as f32,
         };
+        // squared lengths (up to ~12 scale^2) and e'^4 must stay finite in f32
+        d.prefilter_usable = scale < 1e15 && d.pre.k_abs.is_finite() && d.pre.k.is_finite();
         d
     }
 
@@ -222,6 +228,19 @@ impl<'a> ScanData<'a> {
         nbrs: &mut Vec<u32>,
         xs: &mut Vec<f32>,
     ) {
+        if !self.prefilter_usable {
+            let au = self.associations[u];
+            for v in u + 1..self.associations.len() {
+                if let Some(x) =
+                    self.test
+                        .test_associations(self.prior, self.query, au, self.associations[v])
+                {
+                    nbrs.push(v as u32);
+                    xs.push(x);
+                }
+            }
+            return;
+        }
         match kernel {
             #[cfg(target_arch = "x86_64")]
             Kernel::Avx2 => {

@@ -348,3 +348,23 @@ fn hashed_lookup_and_empty_lists() {
         assert_eq!((g.num_vertices(), g.num_edges()), (1, 0));
     }
 }
+
+#[test]
+fn extreme_scales_skip_the_prefilter_but_agree() {
+    // huge coordinates and a huge epsilon: the f32 prefilter cannot represent them
+    let base = problem(15, Mode::All, 0.05, false, 41);
+    let scale = 1e17;
+    let prior: Vec<_> = base.prior.iter().map(|p| p * scale).collect();
+    let query: Vec<_> = base.query.iter().map(|p| p * scale).collect();
+    let inv = distance(0.3 * scale, 0.1 * scale);
+    let reference = brute_force(&prior, &query, &base.associations, &inv);
+    let (j, s) = both(&prior, &query, &base.associations, &inv);
+    assert!(reference.num_edges() > 0);
+    assert_eq!(j, reference);
+    assert_eq!(s, reference);
+    let inv = distance(1e300, 1.0);
+    let reference = brute_force(&base.prior, &base.query, &base.associations, &inv);
+    let (j, s) = both(&base.prior, &base.query, &base.associations, &inv);
+    assert_eq!(j, reference);
+    assert_eq!(s, reference);
+}

@@ -268,3 +268,36 @@ fn close_point_pairs_do_not_swap_associations() {
         assert_eq!((precision, recall), (1.0, 1.0), "{:?}", s.vertices);
     }
 }
+
+#[test]
+fn odd_settings_still_return_a_clique() {
+    let (g, planted) = planted(120, 0.3, 10, 9);
+    for cfg in [
+        DensestCliqueConfig {
+            max_outer_iterations: 0,
+            ..Default::default()
+        },
+        DensestCliqueConfig {
+            max_inner_iterations: 0,
+            support_tolerance: -1.0,
+            step_shrink: 2.0,
+            ..Default::default()
+        },
+        DensestCliqueConfig {
+            initial_step: f64::NAN,
+            max_line_search_steps: 0,
+            polish: false,
+            ..Default::default()
+        },
+        DensestCliqueConfig {
+            prune_by_core: false,
+            max_outer_iterations: 1,
+            ..Default::default()
+        },
+    ] {
+        let s = densest_clique(&g, &cfg);
+        assert!(g.is_clique(&s.vertices), "{cfg:?}");
+        assert!(!s.vertices.is_empty());
+        assert!(s.vertices.len() <= planted.len().max(s.upper_bound));
+    }
+}
