@@ -361,21 +361,26 @@ impl ConsistencyGraph {
                 old_of_new.push(v as u32);
             }
         }
+        // Branch-free compaction: every entry of a kept row is written, and the write
+        // position only advances for kept neighbours.
+        let bound: usize = old_of_new.iter().map(|&v| self.degree(v as usize)).sum();
         let mut offsets = Vec::with_capacity(old_of_new.len() + 1);
         offsets.push(0);
-        let mut neighbors = Vec::new();
-        let mut weights = Vec::new();
+        let mut neighbors = vec![0u32; bound];
+        let mut weights = vec![0f32; bound];
+        let mut len = 0usize;
         for &v in &old_of_new {
             let v = v as usize;
             for (&u, &w) in self.neighbors(v).iter().zip(self.weights(v)) {
                 let nu = new_index[u as usize];
-                if nu != u32::MAX {
-                    neighbors.push(nu);
-                    weights.push(w);
-                }
+                neighbors[len] = nu;
+                weights[len] = w;
+                len += usize::from(nu != u32::MAX);
             }
-            offsets.push(neighbors.len());
+            offsets.push(len);
         }
+        neighbors.truncate(len);
+        weights.truncate(len);
         (
             ConsistencyGraph {
                 offsets,
