@@ -71,14 +71,22 @@ pub fn generate_hypotheses(
     }
 
     let started = Instant::now();
-    let (rest, to_original) = graph.induced_subgraph(&keep);
+    // A rival with fewer than half the winner's associations cannot make the answer
+    // ambiguous (see `VerificationConfig::max_runner_up_ratio`); only vertices whose core
+    // number allows a clique that large can be in one.
+    let min_size = config.clique.min_clique.max(first.len().div_ceil(2));
+    let (rest, rest_to_graph) = graph.induced_subgraph(&keep);
+    let core_keep: Vec<bool> = core_numbers(&rest)
+        .iter()
+        .map(|&core| core as usize + 1 >= min_size)
+        .collect();
+    let (rest, to_rest) = rest.induced_subgraph(&core_keep);
+    let to_original: Vec<u32> = to_rest.iter().map(|&v| rest_to_graph[v as usize]).collect();
     let search = super::seeded::SeededSearch {
         max_samples: config.clique.seeded_samples,
         miss_probability: 1e-3,
         seed: config.clique.seed ^ 0x5eed,
-        // A rival with fewer than half the winner's associations cannot make the answer
-        // ambiguous (see `VerificationConfig::max_runner_up_ratio`).
-        min_size: config.clique.min_clique.max(first.len().div_ceil(2)),
+        min_size,
     };
     let rivals = super::seeded::edge_seeded_cliques(&rest, &search, config.clique.hypotheses - 1);
     set.clique_ms += ms_since(started);
@@ -183,21 +191,16 @@ pub fn pair_of(a: &Association, prior: &PreparedMap, query: &PreparedMap) -> Wei
 
 /// The largest clique the solvers find, as sorted vertex indices of `graph`.
 ///
-/// 1. The exact solver's front: a greedy clique that often meets the upper bound at once
-///    (certified), or a core-pruned graph small enough to search exactly.
-/// 2. Otherwise the edge-seeded search ([`super::seeded`]): its clique is a lower bound,
-///    so only vertices whose core number reaches it can be in a larger clique; the graph
-///    pruned to them is searched exactly when small enough, else — for the first
-///    hypothesis only — by the densest-clique relaxation. Later rounds look for rivals of
-///    the first hypothesis; the seeded search's answer is enough there.
+/// The edge-seeded search ([`super::seeded`]) runs first; its clique is a lower bound, so
+/// only vertices whose core number reaches it can be in a larger clique. The graph pruned
+/// to them is usually tiny and searched exactly (which certifies the answer); when it is
+/// too large for that and the seeded search found nothing worth a hypothesis, the
+/// densest-clique relaxation has the last word.
 fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig, relax: bool) -> Vec<u32> {
     let limits = MaxCliqueLimits {
         max_vertices: config.clique.exact_max_vertices,
         max_nodes: config.clique.exact_max_nodes,
     };
-    if let Ok(exact) = max_clique(graph, &limits) {
-        return exact.vertices;
-    }
     let search = super::seeded::SeededSearch {
         max_samples: config.clique.seeded_samples,
         miss_probability: 1e-3,

@@ -70,6 +70,8 @@ pub fn edge_seeded_cliques(
     let mut rng = ChaCha8Rng::seed_from_u64(search.seed);
     let mut kept: Vec<Vec<u32>> = Vec::new();
     let mut common = Vec::new();
+    let mut stamp = vec![0u32; n];
+    let mut epoch = 0u32;
     let mut since_improvement = 0usize;
     for _ in 0..search.max_samples {
         let floor = if kept.len() < count {
@@ -84,7 +86,24 @@ pub fn edge_seeded_cliques(
         since_improvement += 1;
         let slot = rng.random_range(0..ends.len());
         let (u, v) = (row_of_slot[slot] as usize, ends[slot] as usize);
-        intersect(graph.neighbors(u), graph.neighbors(v), &mut common);
+        // Common neighbours by stamping u's row and scanning v's: branch-light, and the
+        // stamps of a few thousand vertices stay in cache.
+        epoch = epoch.wrapping_add(1);
+        if epoch == 0 {
+            stamp.fill(0);
+            epoch = 1;
+        }
+        for &w in graph.neighbors(u) {
+            stamp[w as usize] = epoch;
+        }
+        common.clear();
+        common.extend(
+            graph
+                .neighbors(v)
+                .iter()
+                .copied()
+                .filter(|&w| stamp[w as usize] == epoch),
+        );
         // Only a neighbourhood that could beat the smallest kept clique is worth growing.
         if kept.len() == count && common.len() + 2 <= floor {
             continue;
