@@ -8,7 +8,8 @@ use crate::graph::file::{write_atomic, BuildOptions, FileFormat, GraphFile};
 use crate::graph::metrics::trajectory_error;
 use crate::graph::synthetic::{self, SyntheticConfig};
 use crate::graph::{
-    Algorithm, GraphError, IncrementalConfig, IncrementalGraph, RobustKernel, SolverConfig,
+    Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
+    SolverConfig,
 };
 use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
@@ -51,6 +52,17 @@ pub enum RobustChoice {
     Gnc,
 }
 
+/// Initialisation choice on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InitChoice {
+    /// Chordal without a robust kernel, chained with one.
+    Auto,
+    /// The file's vertices, or chained odometry when it has none.
+    Chained,
+    /// Chordal relaxation (rotations, then translations) before iterating.
+    Chordal,
+}
+
 /// Arguments of `segloc graph optimize`.
 #[derive(Args, Debug)]
 pub struct OptimizeArgs {
@@ -71,6 +83,14 @@ pub struct OptimizeArgs {
     /// Use Gauss–Newton instead of Levenberg–Marquardt.
     #[arg(long)]
     pub gauss_newton: bool,
+    /// Initial estimate: the file's (chained odometry without vertices), the chordal
+    /// relaxation, or auto (chordal without a robust kernel, since the relaxation is not
+    /// robust to wrong loop closures; the file's otherwise).
+    #[arg(long, value_enum, default_value_t = InitChoice::Auto)]
+    pub init: InitChoice,
+    /// Chord steps after each factorisation (overrides the configuration).
+    #[arg(long)]
+    pub chord_steps: Option<usize>,
     /// Solver configuration file (TOML, fields of `SolverConfig`).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -217,8 +237,11 @@ struct OptimizeOutput<'a> {
     initial_cost: f64,
     final_cost: f64,
     iterations: usize,
+    factorizations: usize,
     time_ms: f64,
     read_ms: f64,
+    init: &'a str,
+    profile: &'a crate::graph::Profile,
     converged: bool,
     termination: crate::graph::Termination,
     components: usize,
@@ -241,6 +264,17 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
     };
     if a.gauss_newton {
         config.algorithm = Algorithm::GaussNewton;
+    }
+    let chordal = match a.init {
+        InitChoice::Auto => a.robust == RobustChoice::None,
+        InitChoice::Chained => false,
+        InitChoice::Chordal => true,
+    };
+    if chordal {
+        config.initialization = Initialization::Chordal;
+    }
+    if let Some(c) = a.chord_steps {
+        config.chord_steps = c;
     }
     if a.print_config {
         print!("{}", toml::to_string(&config)?);
@@ -279,8 +313,11 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
             initial_cost: report.initial_cost,
             final_cost: report.final_cost,
             iterations: report.iterations,
+            factorizations: report.factorizations,
             time_ms: report.time_ms,
             read_ms,
+            init: if chordal { "chordal" } else { "chained" },
+            profile: &report.profile,
             converged: report.converged,
             termination: report.termination,
             components: report.components.len(),
@@ -299,14 +336,15 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
         );
         for it in &report.log {
             println!(
-                "  iter {:3}  cost {:.6e} -> {:.6e}  lambda {:.1e}  |step| {:.2e}  rejected {}  mu {:.3}",
-                it.iteration, it.cost_before, it.cost_after, it.lambda, it.step_max, it.rejected_steps, it.mu
+                "  iter {:3}  cost {:.9e} -> {:.9e}  lambda {:.1e}  |step| {:.2e}  rejected {}  mu {:.3}{}",
+                it.iteration, it.cost_before, it.cost_after, it.lambda, it.step_max, it.rejected_steps, it.mu,
+                if it.chord { "  (chord)" } else { "" }
             );
         }
         let p = &report.profile;
         println!(
-            "time: analysis {:.1} ms, linearize {:.1} ms, factorize+solve {:.1} ms, cost {:.1} ms; factor nnz {}",
-            p.analysis_ms, p.linearize_ms, p.solve_ms, p.cost_ms, report.factor_nnz
+            "time: analysis {:.1} ms, initialize {:.1} ms, linearize {:.1} ms, factorize {:.1} ms ({} times), solve {:.1} ms, cost {:.1} ms; factor nnz {}",
+            p.analysis_ms, p.initialize_ms, p.linearize_ms, p.factorize_ms, report.factorizations, p.solve_ms, p.cost_ms, report.factor_nnz
         );
         println!(
             "initial cost {:.6}, final cost {:.6}, {} iterations, {:.1} ms, {:?}",

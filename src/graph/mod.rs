@@ -39,11 +39,15 @@ mod factors;
 pub mod file;
 pub mod g2o;
 mod incremental;
+mod initialize;
 pub mod metrics;
+mod ordering;
 mod pose_graph;
 pub mod robust;
 pub mod se3;
 mod solver;
+#[cfg(test)]
+mod solver_tests;
 mod structure;
 pub mod synthetic;
 pub mod toro;
@@ -55,8 +59,8 @@ pub use incremental::{IncrementalConfig, IncrementalGraph};
 pub use pose_graph::PoseGraph;
 pub use robust::RobustKernel;
 pub use solver::{
-    Algorithm, Damping, GncConfig, IterationLog, OptimizationReport, Profile, SolverConfig,
-    Termination,
+    Algorithm, Damping, GncConfig, Initialization, IterationLog, OptimizationReport, Profile,
+    SolverConfig, Termination,
 };
 
 use serde::{Deserialize, Serialize};

@@ -29,8 +29,10 @@ pub(crate) struct StructureCache {
     pub shape: (usize, usize),
     /// Connected components and their anchors.
     pub components: Vec<ComponentInfo>,
+    /// Variables held constant (user-fixed and auto-fixed).
+    pub held: Vec<bool>,
     /// Normal equations with the symbolic factorisation.
-    pub system: NormalEquations,
+    pub system: NormalEquations<6>,
 }
 
 impl std::fmt::Debug for PoseGraph {
@@ -296,9 +298,10 @@ impl PoseGraph {
         &self.factors
     }
 
-    /// Total cost `½ Σ ρ(rᵀ Ω r)` at the current estimate (GNC kernels at their final scale).
+    /// Total cost `½ Σ ρ(rᵀ Ω r)` at the current estimate (GNC kernels as the truncated
+    /// quadratic they end on).
     pub fn cost(&self) -> f64 {
-        self.factors.iter().map(|f| f.cost(&self.poses, 1.0)).sum()
+        self.factors.iter().map(|f| f.cost(&self.poses, 0.0)).sum()
     }
 
     /// Plain least-squares cost `½ Σ rᵀ Ω r`, ignoring robust kernels.

@@ -29,9 +29,11 @@ pub enum RobustKernel {
         /// Scale on the Mahalanobis distance.
         c: f64,
     },
-    /// Geman–McClure reached by graduated non-convexity: the solver starts from the convex
-    /// surrogate `c² → μ c²` with a large `μ` and shrinks `μ` to 1 stage by stage, which
-    /// lets it reject wrong loop closures without a good initial guess.
+    /// Graduated non-convexity towards truncated least squares: the solver starts from the
+    /// Geman–McClure surrogate with scale `μ c²` and a large `μ` (almost convex), shrinks `μ`
+    /// to 1 stage by stage, then finishes on the truncated quadratic `ρ(s) = min(s, c²)`,
+    /// so factors whose Mahalanobis distance ends beyond `c` are ignored and the others
+    /// count fully. This rejects wrong loop closures without a good initial guess.
     Gnc {
         /// Final scale on the Mahalanobis distance.
         c: f64,
@@ -40,7 +42,9 @@ pub enum RobustKernel {
 
 impl RobustKernel {
     /// Robust loss `ρ(s)` at the squared Mahalanobis distance `s`, with the GNC control
-    /// parameter `mu` (ignored by every kernel except [`RobustKernel::Gnc`]).
+    /// parameter `mu` (ignored by every kernel except [`RobustKernel::Gnc`], for which
+    /// `mu ≥ 1` selects the Geman–McClure surrogate of scale `μ c²` and `mu = 0` the final
+    /// truncated quadratic).
     pub fn rho(&self, s: f64, mu: f64) -> f64 {
         match *self {
             RobustKernel::None => s,
@@ -54,8 +58,12 @@ impl RobustKernel {
             RobustKernel::Cauchy { c } => c * c * (s / (c * c)).ln_1p(),
             RobustKernel::GemanMcClure { c } => c * c * s / (c * c + s),
             RobustKernel::Gnc { c } => {
-                let c2 = mu * c * c;
-                c2 * s / (c2 + s)
+                if mu == 0.0 {
+                    s.min(c * c)
+                } else {
+                    let c2 = mu * c * c;
+                    c2 * s / (c2 + s)
+                }
             }
         }
     }
@@ -77,9 +85,17 @@ impl RobustKernel {
                 c.powi(4) / (d * d)
             }
             RobustKernel::Gnc { c } => {
-                let c2 = mu * c * c;
-                let d = c2 + s;
-                c2 * c2 / (d * d)
+                if mu == 0.0 {
+                    if s <= c * c {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                } else {
+                    let c2 = mu * c * c;
+                    let d = c2 + s;
+                    c2 * c2 / (d * d)
+                }
             }
         }
     }
@@ -129,6 +145,7 @@ mod tests {
         for kernel in kernels {
             for &s in &[0.1, 1.0, 2.0, 9.5, 100.0] {
                 for &mu in &[1.0, 7.0] {
+                    // (μ = 0, the truncated quadratic, is not differentiable at c².)
                     let h = 1e-6 * s;
                     let fd = (kernel.rho(s + h, mu) - kernel.rho(s - h, mu)) / (2.0 * h);
                     let w = kernel.weight(s, mu);

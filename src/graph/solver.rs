@@ -9,6 +9,7 @@
 
 use super::components::{self, ComponentInfo};
 use super::factors::Factor;
+use super::initialize;
 use super::pose_graph::{PoseGraph, StructureCache};
 use super::se3;
 use super::structure::NormalEquations;
@@ -39,6 +40,18 @@ pub enum Damping {
     Diagonal,
 }
 
+/// How the estimates are initialised before iterating.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Initialization {
+    /// Start from the current estimates (warm start).
+    #[default]
+    None,
+    /// Replace them by the chordal relaxation (rotations, then translations) first; see
+    /// the `initialize` module. Ignores robust kernels, so wrong loop closures distort it.
+    Chordal,
+}
+
 /// Graduated non-convexity schedule for factors with [`RobustKernel::Gnc`].
 ///
 /// [`RobustKernel::Gnc`]: super::RobustKernel::Gnc
@@ -56,8 +69,8 @@ pub struct GncConfig {
 impl Default for GncConfig {
     fn default() -> Self {
         Self {
-            mu_step: 1.4,
-            stage_iterations: 3,
+            mu_step: 2.0,
+            stage_iterations: 2,
             initial_mu: None,
         }
     }
@@ -89,6 +102,12 @@ pub struct SolverConfig {
     pub lambda_min: f64,
     /// How λ enters the normal equations.
     pub damping: Damping,
+    /// Initialisation before iterating (the initial cost is reported before it).
+    pub initialization: Initialization,
+    /// Chord steps tried after each factorisation once the cost decreases by less than 0.1 %
+    /// per step: steps that reuse the last factor with the new gradient instead of
+    /// refactoring (0 = classic Levenberg–Marquardt).
+    pub chord_steps: usize,
     /// Graduated non-convexity schedule (used only when a factor has a GNC kernel).
     pub gnc: GncConfig,
     /// Keep a per-iteration log in the report.
@@ -109,6 +128,8 @@ impl Default for SolverConfig {
             lambda_max: 1e5,
             lambda_min: 0.0,
             damping: Damping::Identity,
+            initialization: Initialization::None,
+            chord_steps: 1,
             gnc: GncConfig::default(),
             log_iterations: true,
         }
@@ -201,7 +222,9 @@ pub struct IterationLog {
     pub step_max: f64,
     /// Steps rejected before this one was accepted.
     pub rejected_steps: usize,
-    /// GNC control parameter μ (1 without GNC).
+    /// True when the step reused the previous factor (chord step).
+    pub chord: bool,
+    /// GNC control parameter μ of the stage (0 in the final stage).
     pub mu: f64,
     /// Wall time since the start of the optimisation.
     pub time_ms: f64,
@@ -220,8 +243,10 @@ pub struct OptimizationReport {
     pub initial_cost: f64,
     /// Cost at the final estimate.
     pub final_cost: f64,
-    /// Number of linearisations (outer iterations).
+    /// Number of iterations (linearisations followed by a step).
     pub iterations: usize,
+    /// Number of numeric factorisations (including those of rejected steps).
+    pub factorizations: usize,
     /// Wall time of the optimisation including analysis.
     pub time_ms: f64,
     /// True if a previous symbolic analysis was reused.
@@ -247,9 +272,13 @@ pub struct OptimizationReport {
 pub struct Profile {
     /// Ordering and symbolic factorisation.
     pub analysis_ms: f64,
+    /// Chordal initialisation.
+    pub initialize_ms: f64,
     /// Linearising factors and assembling the normal equations.
     pub linearize_ms: f64,
-    /// Numeric factorisation and triangular solves.
+    /// Numeric factorisations.
+    pub factorize_ms: f64,
+    /// Triangular solves.
     pub solve_ms: f64,
     /// Retraction and cost evaluation of candidate steps.
     pub cost_ms: f64,
@@ -267,6 +296,7 @@ pub(crate) fn optimize(
         start,
         log: Vec::new(),
         iterations: 0,
+        factorizations: 0,
         profile: Profile::default(),
     };
     let cached = match graph.cache.take() {
@@ -280,20 +310,27 @@ pub(crate) fn optimize(
             let t = Instant::now();
             let (components, held) =
                 components::analyse(graph.keys(), graph.fixed_flags(), &graph.factors);
-            let system = NormalEquations::analyse(&held, &graph.factors)?;
+            let system = NormalEquations::<6>::analyse(&held, &graph.factors)?;
             state.profile.analysis_ms = ms_since(t);
             StructureCache {
                 shape,
                 components,
+                held,
                 system,
             }
         }
     };
+    let initial_cost = graph.cost();
+    if config.initialization == Initialization::Chordal {
+        let t = Instant::now();
+        initialize::chordal_initialize(&mut graph.poses, &graph.factors, &cache.held)?;
+        state.profile.initialize_ms = ms_since(t);
+    }
     let result = run(graph, &mut cache.system, config, &mut state);
     let components = cache.components.clone();
     let factor_nnz = cache.system.factor_nnz();
     graph.cache = Some(cache);
-    let (initial_cost, termination, gnc_stages) = result?;
+    let (termination, gnc_stages) = result?;
     Ok(OptimizationReport {
         poses: graph.num_poses(),
         variables: graph.num_variables(),
@@ -301,6 +338,7 @@ pub(crate) fn optimize(
         initial_cost,
         final_cost: graph.cost(),
         iterations: state.iterations,
+        factorizations: state.factorizations,
         time_ms: ms_since(start),
         analysis_reused,
         converged: termination.converged(),
@@ -321,24 +359,25 @@ fn ms_since(t: Instant) -> f64 {
 struct RunState {
     start: Instant,
     log: Vec<IterationLog>,
-    /// Linearisations so far.
+    /// Iterations so far.
     iterations: usize,
+    /// Numeric factorisations so far.
+    factorizations: usize,
     profile: Profile,
 }
 
-/// Initial cost, termination and number of GNC stages.
-type RunResult = (f64, Termination, usize);
+/// Termination and number of GNC stages.
+type RunResult = (Termination, usize);
 
 /// GNC stages (if any) followed by the final solve.
 fn run(
     graph: &mut PoseGraph,
-    system: &mut NormalEquations,
+    system: &mut NormalEquations<6>,
     config: &SolverConfig,
     state: &mut RunState,
 ) -> Result<RunResult, GraphError> {
-    let initial_cost = graph.cost();
     if system.dim() == 0 {
-        return Ok((initial_cost, Termination::NoFreeVariables, 0));
+        return Ok((Termination::NoFreeVariables, 0));
     }
     let mut stages = 0;
     if graph.factors.iter().any(|f| f.kernel().is_gnc()) {
@@ -346,17 +385,21 @@ fn run(
             Some(mu) => mu,
             None => initial_mu(&graph.factors, &graph.poses),
         };
-        while mu > 1.0 {
-            let mut stage = config.clone();
-            stage.max_iterations = config.gnc.stage_iterations;
+        let mut stage = config.clone();
+        stage.max_iterations = config.gnc.stage_iterations;
+        loop {
             levenberg_marquardt(graph, system, &stage, mu, state)?;
             stages += 1;
+            if mu <= 1.0 {
+                break;
+            }
             mu = (mu / config.gnc.mu_step).max(1.0);
         }
         stages += 1;
     }
-    let termination = levenberg_marquardt(graph, system, config, 1.0, state)?;
-    Ok((initial_cost, termination, stages))
+    // μ = 0 is the final truncated quadratic of GNC factors (ignored by other kernels).
+    let termination = levenberg_marquardt(graph, system, config, 0.0, state)?;
+    Ok((termination, stages))
 }
 
 /// GNC starting point `2 max(s) / c²` (Yang et al., 2020), at least 1.
@@ -375,7 +418,7 @@ fn initial_mu(factors: &[Factor], poses: &[Isometry3<f64>]) -> f64 {
 fn linearize(
     factors: &[Factor],
     poses: &[Isometry3<f64>],
-    system: &mut NormalEquations,
+    system: &mut NormalEquations<6>,
     mu: f64,
 ) -> f64 {
     system.clear();
@@ -396,10 +439,36 @@ fn total_cost(factors: &[Factor], poses: &[Isometry3<f64>], mu: f64) -> f64 {
     factors.iter().map(|f| f.cost(poses, mu)).sum()
 }
 
+/// Chord steps are only tried once the last step decreased the cost by less than this
+/// fraction: far from the optimum the Hessian changes too much between iterations for the
+/// old factor to give a useful step, and a failed try costs a solve and a cost evaluation.
+const CHORD_REGIME: f64 = 1e-3;
+
+/// Retracts every free variable by its block of `step` into `candidate`; returns the cost.
+fn try_step(
+    graph: &PoseGraph,
+    system: &NormalEquations<6>,
+    step: &[f64],
+    candidate: &mut [Isometry3<f64>],
+    mu: f64,
+) -> f64 {
+    candidate.copy_from_slice(&graph.poses);
+    for (b, &v) in system.var_of.iter().enumerate() {
+        let d = Vector6::from_column_slice(&step[6 * b..6 * b + 6]);
+        candidate[v] = se3::retract(&graph.poses[v], &d);
+    }
+    total_cost(&graph.factors, candidate, mu)
+}
+
 /// One Levenberg–Marquardt (or Gauss–Newton) run at fixed μ; returns why it stopped.
+///
+/// With `chord_steps`, an iteration first tries the step computed from the previous
+/// iteration's factor and the new gradient (a simplified Newton, or chord, step); only if it
+/// fails to decrease the cost is the Hessian refactored. Near the optimum the chord step is
+/// almost as good as a full one and costs a triangular solve instead of a factorisation.
 fn levenberg_marquardt(
     graph: &mut PoseGraph,
-    system: &mut NormalEquations,
+    system: &mut NormalEquations<6>,
     config: &SolverConfig,
     mu: f64,
     state: &mut RunState,
@@ -408,6 +477,8 @@ fn levenberg_marquardt(
     let mut lambda = config.lambda_initial;
     let mut step = vec![0.0; system.dim()];
     let mut candidate = graph.poses.clone();
+    let mut chords_left = 0;
+    let mut last_decrease = f64::INFINITY;
     for _ in 0..config.max_iterations {
         let t = Instant::now();
         let cost = linearize(&graph.factors, &graph.poses, system, mu);
@@ -421,40 +492,56 @@ fn levenberg_marquardt(
         }
         state.iterations += 1;
         let mut rejected = 0;
-        let new_cost = loop {
-            let lam = if gauss_newton { 0.0 } else { lambda };
-            let damping = config.damping;
+        let mut chord = false;
+        let mut new_cost = f64::NAN;
+        if chords_left > 0 && system.has_factor() && last_decrease < CHORD_REGIME {
+            chords_left -= 1;
             let t = Instant::now();
-            let ok = system.solve_damped(
-                |_, h| match damping {
-                    Damping::Identity => lam,
-                    Damping::Diagonal => lam * h.clamp(1e-6, 1e32),
-                },
-                &mut step,
-            )?;
+            let ok = system.solve(&mut step);
             state.profile.solve_ms += ms_since(t);
-            if !ok && gauss_newton {
-                return Ok(Termination::Singular);
-            }
             if ok {
                 let t = Instant::now();
-                candidate.copy_from_slice(&graph.poses);
-                for (b, &v) in system.var_of.iter().enumerate() {
-                    let d = Vector6::from_column_slice(&step[6 * b..6 * b + 6]);
-                    candidate[v] = se3::retract(&graph.poses[v], &d);
-                }
-                let c = total_cost(&graph.factors, &candidate, mu);
+                let c = try_step(graph, system, &step, &mut candidate, mu);
                 state.profile.cost_ms += ms_since(t);
-                if gauss_newton || (c.is_finite() && c <= cost) {
-                    break c;
+                if c.is_finite() && c <= cost {
+                    chord = true;
+                    new_cost = c;
                 }
             }
-            rejected += 1;
-            lambda *= config.lambda_factor;
-            if lambda > config.lambda_max {
-                return Ok(Termination::LambdaLimit);
-            }
-        };
+        }
+        if !chord {
+            new_cost = loop {
+                let lam = if gauss_newton { 0.0 } else { lambda };
+                let damping = config.damping;
+                let t = Instant::now();
+                let ok = system.factorize_damped(|_, h| match damping {
+                    Damping::Identity => lam,
+                    Damping::Diagonal => lam * h.clamp(1e-6, 1e32),
+                });
+                state.profile.factorize_ms += ms_since(t);
+                let t = Instant::now();
+                let ok = ok && system.solve(&mut step);
+                state.profile.solve_ms += ms_since(t);
+                if !ok && gauss_newton {
+                    return Ok(Termination::Singular);
+                }
+                if ok {
+                    let t = Instant::now();
+                    let c = try_step(graph, system, &step, &mut candidate, mu);
+                    state.profile.cost_ms += ms_since(t);
+                    if gauss_newton || (c.is_finite() && c <= cost) {
+                        break c;
+                    }
+                }
+                rejected += 1;
+                lambda *= config.lambda_factor;
+                if lambda > config.lambda_max {
+                    return Ok(Termination::LambdaLimit);
+                }
+            };
+            state.factorizations += 1 + rejected;
+            chords_left = config.chord_steps;
+        }
         std::mem::swap(&mut graph.poses, &mut candidate);
         let step_max = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
         if config.log_iterations {
@@ -465,12 +552,16 @@ fn levenberg_marquardt(
                 lambda: if gauss_newton { 0.0 } else { lambda },
                 step_max,
                 rejected_steps: rejected,
+                chord,
                 mu,
                 time_ms: ms_since(state.start),
             });
         }
-        lambda = (lambda / config.lambda_factor).max(config.lambda_min);
+        if !chord {
+            lambda = (lambda / config.lambda_factor).max(config.lambda_min);
+        }
         let decrease = cost - new_cost;
+        last_decrease = decrease / cost;
         if new_cost <= 0.0 {
             return Ok(Termination::ZeroCost);
         }

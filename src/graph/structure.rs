@@ -1,25 +1,25 @@
 //! Sparse structure of the normal equations, analysed once and reused across iterations.
 //!
-//! The Gauss–Newton Hessian `H = Σ Jᵀ W J` of a pose graph has one dense 6×6 block per free
-//! variable and one per pair of free variables sharing a factor. Its upper triangle is stored
-//! in compressed sparse columns; every factor knows in advance where its blocks land, so
-//! assembling an iteration's system is a scatter without searching. The fill-reducing
-//! ordering is approximate minimum degree computed on the *block* graph (36× smaller than the
-//! scalar one) and expanded to scalars, and the symbolic Cholesky factorisation is computed
-//! once; each iteration only refactors numerically.
+//! The Gauss–Newton Hessian `H = Σ Jᵀ W J` of a pose graph has one dense B×B block per free
+//! variable (B = 6 for poses) and one per pair of free variables sharing a factor. Its upper
+//! triangle is stored in compressed sparse columns; every factor knows in advance where its
+//! blocks land, so assembling an iteration's system is a scatter without searching. The
+//! fill-reducing ordering is computed on the block graph ([`super::ordering`]) and the
+//! symbolic Cholesky factorisation once; each iteration only refactors numerically.
 
 use super::factors::Factor;
+use super::ordering;
 use super::GraphError;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::perm::PermRef;
-use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymmetricOrdering,
 };
+use faer::sparse::linalg::SymbolicSupernodalParams;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use nalgebra::{Matrix6, Vector6};
+use nalgebra::{SMatrix, SVector};
 
 /// Marker for a variable that is held (not part of the linear system).
 const HELD: usize = usize::MAX;
@@ -31,12 +31,12 @@ struct FactorSlots {
     block_a: usize,
     /// Block column of the second variable, or `HELD` (also for unary factors).
     block_b: usize,
-    /// Position of the off-diagonal block's rows within its column (block rank × 6).
+    /// Offset of the off-diagonal block's rows within its column (block rank × B).
     off_rank: usize,
 }
 
-/// Sparse normal equations with a reusable symbolic Cholesky factorisation.
-pub(crate) struct NormalEquations {
+/// Sparse normal equations with B×B blocks and a reusable symbolic Cholesky factorisation.
+pub(crate) struct NormalEquations<const B: usize> {
     /// Block column → variable index.
     pub var_of: Vec<usize>,
     col_ptr: Vec<usize>,
@@ -45,7 +45,7 @@ pub(crate) struct NormalEquations {
     off_count: Vec<usize>,
     slots: Vec<FactorSlots>,
     /// Undamped Hessian values (upper triangle).
-    pub hessian: Vec<f64>,
+    hessian: Vec<f64>,
     /// Damped copy handed to the factorisation.
     damped: Vec<f64>,
     /// Positions of the scalar diagonal entries.
@@ -54,14 +54,15 @@ pub(crate) struct NormalEquations {
     pub gradient: Vec<f64>,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
+    /// True when `l_values` holds a valid factor.
+    factored: bool,
     workspace: MemBuffer,
 }
 
-impl NormalEquations {
+impl<const B: usize> NormalEquations<B> {
     /// Analyses the structure for the given factors with the given held variables.
     pub fn analyse(held: &[bool], factors: &[Factor]) -> Result<Self, GraphError> {
-        let n_vars = held.len();
-        let mut block_of = vec![HELD; n_vars];
+        let mut block_of = vec![HELD; held.len()];
         let mut var_of = Vec::new();
         for (v, &h) in held.iter().enumerate() {
             if !h {
@@ -72,15 +73,11 @@ impl NormalEquations {
         let nb = var_of.len();
         // Strictly-upper block rows of each block column.
         let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); nb];
-        for f in factors {
-            if f.is_unary() {
-                continue;
-            }
+        for f in factors.iter().filter(|f| !f.is_unary()) {
             let [a, b] = f.vars();
             let (ba, bb) = (block_of[a], block_of[b]);
             if ba != HELD && bb != HELD && ba != bb {
-                let (r, c) = if ba < bb { (ba, bb) } else { (bb, ba) };
-                rows_of[c].push(r);
+                rows_of[ba.max(bb)].push(ba.min(bb));
             }
         }
         for rows in &mut rows_of {
@@ -89,19 +86,20 @@ impl NormalEquations {
         }
         let off_count: Vec<usize> = rows_of.iter().map(Vec::len).collect();
 
-        // Scalar upper CSC.
-        let n = 6 * nb;
-        let nnz: usize = off_count.iter().map(|m| 36 * m + 21).sum();
+        // Scalar upper CSC: in every scalar column of block column c, the rows of the
+        // strictly-upper blocks (B each) followed by the diagonal block's upper part.
+        let n = B * nb;
+        let nnz: usize = off_count.iter().map(|m| B * B * m + B * (B + 1) / 2).sum();
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::with_capacity(nnz);
         let mut diag_pos = Vec::with_capacity(n);
         col_ptr.push(0);
         for (c, rows) in rows_of.iter().enumerate() {
-            for k in 0..6 {
+            for k in 0..B {
                 for &r in rows {
-                    row_idx.extend((0..6).map(|i| 6 * r + i));
+                    row_idx.extend((0..B).map(|i| B * r + i));
                 }
-                row_idx.extend((0..=k).map(|i| 6 * c + i));
+                row_idx.extend((0..=k).map(|i| B * c + i));
                 diag_pos.push(row_idx.len() - 1);
                 col_ptr.push(row_idx.len());
             }
@@ -115,13 +113,9 @@ impl NormalEquations {
                 let block_b = if f.is_unary() { HELD } else { block_of[b] };
                 let mut off_rank = 0;
                 if block_a != HELD && block_b != HELD && block_a != block_b {
-                    let (r, c) = if block_a < block_b {
-                        (block_a, block_b)
-                    } else {
-                        (block_b, block_a)
-                    };
+                    let (r, c) = (block_a.min(block_b), block_a.max(block_b));
                     // The row was inserted above, so the search succeeds.
-                    off_rank = 6 * rows_of[c].binary_search(&r).unwrap_or(0);
+                    off_rank = B * rows_of[c].binary_search(&r).unwrap_or(0);
                 }
                 FactorSlots {
                     block_a,
@@ -131,7 +125,22 @@ impl NormalEquations {
             })
             .collect();
 
-        let symbolic = symbolic_factorisation(nb, &rows_of, &col_ptr, &row_idx)?;
+        let order = ordering::block_amd(&rows_of)?;
+        let (fwd, inv) = ordering::expand(&order, B);
+        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let params = CholeskySymbolicParams {
+            // No relaxed supernodes: the B×B blocks already make supernodes dense, and
+            // padding them only added flops on sphere2500.
+            supernodal_params: SymbolicSupernodalParams { relax: None },
+            ..Default::default()
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            pattern,
+            Side::Upper,
+            SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, n)),
+            params,
+        )
+        .map_err(|e| GraphError::LinearAlgebra(format!("{e:?}")))?;
         let par = Par::Seq;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
@@ -152,11 +161,12 @@ impl NormalEquations {
             gradient: vec![0.0; n],
             symbolic,
             l_values,
+            factored: false,
             workspace,
         })
     }
 
-    /// Dimension of the linear system (6 × free variables).
+    /// Dimension of the linear system (B × free variables).
     pub fn dim(&self) -> usize {
         self.gradient.len()
     }
@@ -167,189 +177,154 @@ impl NormalEquations {
         self.gradient.fill(0.0);
     }
 
-    /// Adds one factor's weighted contribution: `W = w Ω`, blocks `JᵀWJ` and gradient `JᵀWr`.
+    /// Clears only the gradient (for a new right-hand side on the same Hessian).
+    pub fn clear_gradient(&mut self) {
+        self.gradient.fill(0.0);
+    }
+
+    /// Adds one factor's weighted contribution: blocks `JᵀWJ` and gradient `JᵀWr`.
+    /// `jac_b` is ignored for unary factors.
     pub fn add_factor(
         &mut self,
         factor_index: usize,
-        jac_a: &Matrix6<f64>,
-        jac_b: &Matrix6<f64>,
-        weighted_info: &Matrix6<f64>,
-        residual: &Vector6<f64>,
+        jac_a: &SMatrix<f64, B, B>,
+        jac_b: &SMatrix<f64, B, B>,
+        weight: &SMatrix<f64, B, B>,
+        residual: &SVector<f64, B>,
     ) {
         let s = self.slots[factor_index];
-        let wr = weighted_info * residual;
+        let wr = weight * residual;
         let a_free = s.block_a != HELD;
         let b_free = s.block_b != HELD;
-        let jta_w = if a_free {
-            Some(jac_a.transpose() * weighted_info)
-        } else {
-            None
-        };
-        let jtb_w = if b_free {
-            Some(jac_b.transpose() * weighted_info)
-        } else {
-            None
-        };
+        let jta_w = a_free.then(|| jac_a.transpose() * weight);
         if let Some(ref jta_w) = jta_w {
-            let haa = jta_w * jac_a;
-            self.add_diag_block(s.block_a, &haa);
-            let g = jac_a.transpose() * wr;
-            self.add_gradient(s.block_a, &g);
+            self.add_diag_block(s.block_a, &(jta_w * jac_a));
+            self.add_gradient(s.block_a, &(jac_a.transpose() * wr));
         }
-        if let Some(ref jtb_w) = jtb_w {
-            let hbb = jtb_w * jac_b;
-            self.add_diag_block(s.block_b, &hbb);
-            let g = jac_b.transpose() * wr;
-            self.add_gradient(s.block_b, &g);
+        if b_free {
+            let jtb_w = jac_b.transpose() * weight;
+            self.add_diag_block(s.block_b, &(jtb_w * jac_b));
+            self.add_gradient(s.block_b, &(jac_b.transpose() * wr));
         }
         if let (Some(jta_w), true) = (jta_w, b_free) {
-            if s.block_a != s.block_b {
-                let hab = jta_w * jac_b;
-                if s.block_a < s.block_b {
-                    self.add_off_block(s.block_b, s.off_rank, &hab, false);
-                } else {
-                    self.add_off_block(s.block_a, s.off_rank, &hab, true);
-                }
-            } else {
+            let hab = jta_w * jac_b;
+            if s.block_a == s.block_b {
                 // Both ends on one variable: H += JaᵀWJb + JbᵀWJa.
-                let hab = jta_w * jac_b;
-                let sym = hab + hab.transpose();
-                self.add_diag_block(s.block_a, &sym);
+                self.add_diag_block(s.block_a, &(hab + hab.transpose()));
+            } else if s.block_a < s.block_b {
+                self.add_off_block(s.block_b, s.off_rank, &hab, false);
+            } else {
+                self.add_off_block(s.block_a, s.off_rank, &hab, true);
             }
         }
     }
 
-    fn add_gradient(&mut self, block: usize, g: &Vector6<f64>) {
-        let base = 6 * block;
-        for i in 0..6 {
-            self.gradient[base + i] += g[i];
+    /// Adds only the gradient `JᵀWr` of one factor.
+    pub fn add_factor_gradient(
+        &mut self,
+        factor_index: usize,
+        jac_a: &SMatrix<f64, B, B>,
+        jac_b: &SMatrix<f64, B, B>,
+        weight: &SMatrix<f64, B, B>,
+        residual: &SVector<f64, B>,
+    ) {
+        let s = self.slots[factor_index];
+        let wr = weight * residual;
+        if s.block_a != HELD {
+            self.add_gradient(s.block_a, &(jac_a.transpose() * wr));
+        }
+        if s.block_b != HELD {
+            self.add_gradient(s.block_b, &(jac_b.transpose() * wr));
         }
     }
 
-    fn add_diag_block(&mut self, block: usize, h: &Matrix6<f64>) {
-        let m6 = 6 * self.off_count[block];
-        for k in 0..6 {
-            let start = self.col_ptr[6 * block + k] + m6;
-            for i in 0..=k {
-                self.hessian[start + i] += h[(i, k)];
+    fn add_gradient(&mut self, block: usize, g: &SVector<f64, B>) {
+        let dst = &mut self.gradient[B * block..B * block + B];
+        for (d, v) in dst.iter_mut().zip(g.iter()) {
+            *d += v;
+        }
+    }
+
+    fn add_diag_block(&mut self, block: usize, h: &SMatrix<f64, B, B>) {
+        let m = B * self.off_count[block];
+        for k in 0..B {
+            let start = self.col_ptr[B * block + k] + m;
+            for (i, d) in self.hessian[start..=start + k].iter_mut().enumerate() {
+                *d += h[(i, k)];
             }
         }
     }
 
     /// Adds block `h` (rows of the lower-numbered block, columns of `col_block`), or its
     /// transpose when `transpose` is set.
-    fn add_off_block(&mut self, col_block: usize, rank6: usize, h: &Matrix6<f64>, transpose: bool) {
-        for k in 0..6 {
-            let start = self.col_ptr[6 * col_block + k] + rank6;
-            let dst = &mut self.hessian[start..start + 6];
-            if transpose {
-                for (i, d) in dst.iter_mut().enumerate() {
-                    *d += h[(k, i)];
-                }
-            } else {
-                for (i, d) in dst.iter_mut().enumerate() {
-                    *d += h[(i, k)];
-                }
+    fn add_off_block(
+        &mut self,
+        col_block: usize,
+        rank: usize,
+        h: &SMatrix<f64, B, B>,
+        transpose: bool,
+    ) {
+        for k in 0..B {
+            let start = self.col_ptr[B * col_block + k] + rank;
+            let dst = &mut self.hessian[start..start + B];
+            for (i, d) in dst.iter_mut().enumerate() {
+                *d += if transpose { h[(k, i)] } else { h[(i, k)] };
             }
         }
     }
 
-    /// Factorises `H + diag(damping)` and solves `(H + D) δ = −g` into `step`.
+    /// Factorises `H + diag(damping(i, H_ii))`, keeping the factor for
+    /// [`NormalEquations::solve`].
     ///
-    /// Returns `Ok(false)` when the damped matrix is not numerically positive definite.
-    pub fn solve_damped(
-        &mut self,
-        damping: impl Fn(usize, f64) -> f64,
-        step: &mut [f64],
-    ) -> Result<bool, GraphError> {
+    /// Returns `false` when the damped matrix is not numerically positive definite.
+    pub fn factorize_damped(&mut self, damping: impl Fn(usize, f64) -> f64) -> bool {
         self.damped.copy_from_slice(&self.hessian);
         for (i, &p) in self.diag_pos.iter().enumerate() {
             self.damped[p] += damping(i, self.hessian[p]);
         }
         let n = self.dim();
-        // The CSC arrays were built consistently above; `new_checked` re-verifies them.
+        // The CSC arrays were built consistently in `analyse`; `new_checked` re-verifies them.
         let symbolic =
             SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let matrix = SparseColMatRef::new(symbolic, &self.damped);
-        let par = Par::Seq;
-        let stack = MemStack::new(&mut self.workspace);
         let result = self.symbolic.factorize_numeric_llt::<f64>(
             &mut self.l_values,
             matrix,
             Side::Upper,
             Default::default(),
-            par,
-            stack,
+            Par::Seq,
+            MemStack::new(&mut self.workspace),
             Default::default(),
         );
-        if result.is_err() {
-            // The only failure is a non-positive pivot: not positive definite.
-            return Ok(false);
+        // The only failure is a non-positive pivot: not positive definite.
+        self.factored = result.is_ok();
+        self.factored
+    }
+
+    /// Solves `(H + D) δ = −g` with the last factor and the current gradient.
+    ///
+    /// Returns `false` if there is no valid factor or the step is not finite.
+    pub fn solve(&mut self, step: &mut [f64]) -> bool {
+        if !self.factored {
+            return false;
         }
         for (s, g) in step.iter_mut().zip(&self.gradient) {
             *s = -g;
         }
+        let n = self.dim();
         let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.l_values);
         let rhs = MatMut::from_column_major_slice_mut(step, n, 1);
-        llt.solve_in_place_with_conj(Conj::No, rhs, par, MemStack::new(&mut self.workspace));
-        Ok(step.iter().all(|v| v.is_finite()))
+        llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.workspace));
+        step.iter().all(|v| v.is_finite())
+    }
+
+    /// True when a valid numeric factor is available.
+    pub fn has_factor(&self) -> bool {
+        self.factored
     }
 
     /// Number of non-zeros of the Cholesky factor (a measure of fill).
     pub fn factor_nnz(&self) -> usize {
         self.l_values.len()
     }
-}
-
-/// Symbolic Cholesky factorisation with an AMD ordering computed on the block graph.
-fn symbolic_factorisation(
-    nb: usize,
-    rows_of: &[Vec<usize>],
-    col_ptr: &[usize],
-    row_idx: &[usize],
-) -> Result<SymbolicCholesky<usize>, GraphError> {
-    let n = 6 * nb;
-    // Block-level upper pattern (diagonal included).
-    let mut b_col_ptr = Vec::with_capacity(nb + 1);
-    let mut b_row_idx = Vec::with_capacity(rows_of.iter().map(Vec::len).sum::<usize>() + nb);
-    b_col_ptr.push(0);
-    for (c, rows) in rows_of.iter().enumerate() {
-        b_row_idx.extend_from_slice(rows);
-        b_row_idx.push(c);
-        b_col_ptr.push(b_row_idx.len());
-    }
-    let block_pattern = SymbolicSparseColMatRef::new_checked(nb, nb, &b_col_ptr, None, &b_row_idx);
-    let mut b_fwd = vec![0usize; nb];
-    let mut b_inv = vec![0usize; nb];
-    let lin_err = |e: faer::sparse::FaerError| GraphError::LinearAlgebra(format!("{e:?}"));
-    if nb > 0 {
-        let mut mem = MemBuffer::try_new(amd::order_scratch::<usize>(nb, b_row_idx.len()))
-            .map_err(|_| GraphError::LinearAlgebra("out of memory".into()))?;
-        amd::order(
-            &mut b_fwd,
-            &mut b_inv,
-            block_pattern,
-            amd::Control::default(),
-            MemStack::new(&mut mem),
-        )
-        .map_err(lin_err)?;
-    }
-    let mut fwd = vec![0usize; n];
-    let mut inv = vec![0usize; n];
-    for b in 0..nb {
-        for k in 0..6 {
-            fwd[6 * b + k] = 6 * b_fwd[b] + k;
-            inv[6 * b + k] = 6 * b_inv[b] + k;
-        }
-    }
-    let perm = PermRef::new_checked(&fwd, &inv, n);
-    let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
-
-    factorize_symbolic_cholesky(
-        pattern,
-        Side::Upper,
-        SymmetricOrdering::Custom(perm),
-        CholeskySymbolicParams::default(),
-    )
-    .map_err(lin_err)
 }
