@@ -55,7 +55,7 @@ pub mod toro;
 pub use components::{Anchor, ComponentInfo};
 pub use error::GraphError;
 pub use factors::{Factor, FactorKind};
-pub use incremental::{IncrementalConfig, IncrementalGraph};
+pub use incremental::{IncrementalConfig, IncrementalGraph, IncrementalReport};
 pub use pose_graph::PoseGraph;
 pub use robust::RobustKernel;
 pub use solver::{
