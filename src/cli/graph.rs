@@ -336,8 +336,18 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
         );
         for it in &report.log {
             println!(
-                "  iter {:3}  cost {:.9e} -> {:.9e}  lambda {:.1e}  |step| {:.2e}  rejected {}  mu {:.3}{}",
-                it.iteration, it.cost_before, it.cost_after, it.lambda, it.step_max, it.rejected_steps, it.mu,
+                "  iter {:3}  cost {:.9e} -> {:.9e}  lambda {:.1e}  |step| {:.2e}  rejected {}{}{}",
+                it.iteration,
+                it.cost_before,
+                it.cost_after,
+                it.lambda,
+                it.step_max,
+                it.rejected_steps,
+                if report.gnc_stages > 0 {
+                    format!("  mu {:.3}", it.mu)
+                } else {
+                    String::new()
+                },
                 if it.chord { "  (chord)" } else { "" }
             );
         }
