@@ -100,6 +100,10 @@ pub struct OptimizeArgs {
     /// Print one JSON object with the results.
     #[arg(long)]
     pub json: bool,
+    /// Solve this many times from the same start and report the fastest run (`time_ms`)
+    /// and the median (`time_median_ms`), for timing on a busy machine.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
 }
 
 /// Arguments of `segloc graph bench-incremental`.
@@ -239,6 +243,8 @@ struct OptimizeOutput<'a> {
     iterations: usize,
     factorizations: usize,
     time_ms: f64,
+    time_median_ms: f64,
+    repeat: usize,
     read_ms: f64,
     init: &'a str,
     profile: &'a crate::graph::Profile,
@@ -294,7 +300,20 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
     };
     let mut graph = file.to_pose_graph(&options)?;
     let read_ms = t_read.elapsed().as_secs_f64() * 1e3;
-    let report = graph.optimize(&config)?;
+    let mut report = graph.optimize(&config)?;
+    let mut times = vec![report.time_ms];
+    for _ in 1..a.repeat.max(1) {
+        // Timing only: solve fresh copies and keep the fastest run's report.
+        let mut again = file.to_pose_graph(&options)?;
+        let r = again.optimize(&config)?;
+        times.push(r.time_ms);
+        if r.time_ms < report.time_ms {
+            report = r;
+            graph = again;
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let time_median_ms = times[times.len() / 2];
     if let Some(out) = &a.output {
         let fmt = output_format(out, file.format);
         let mut written = GraphFile::from_pose_graph(&graph, fmt)?;
@@ -315,6 +334,8 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
             iterations: report.iterations,
             factorizations: report.factorizations,
             time_ms: report.time_ms,
+            time_median_ms,
+            repeat: times.len(),
             read_ms,
             init: if chordal { "chordal" } else { "chained" },
             profile: &report.profile,

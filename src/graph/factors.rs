@@ -12,6 +12,7 @@
 
 use super::robust::RobustKernel;
 use super::se3;
+use super::structure::FactorBlocks;
 use super::{GraphError, VarKey};
 use nalgebra::{Isometry3, Matrix6, Vector6};
 use serde::{Deserialize, Serialize};
@@ -168,6 +169,49 @@ impl Factor {
     pub(crate) fn cost(&self, poses: &[Isometry3<f64>], mu: f64) -> f64 {
         let r = self.residual(poses);
         0.5 * self.kernel.rho(self.mahalanobis2(&r), mu)
+    }
+
+    /// Residual, robust cost `½ ρ(s)` and the blocks of the normal equations with the IRLS
+    /// weight `ρ'(s)`, at the given estimate.
+    ///
+    /// Uses `J_a = −J_b · Ad(B⁻¹A)` so that `H_ab = −Adᵀ H_bb`, `H_aa = −H_ab · Ad` and
+    /// `g_a = −Adᵀ g_b`, which saves a third of the 6×6 products of the plain form.
+    pub(crate) fn normal_blocks(
+        &self,
+        poses: &[Isometry3<f64>],
+        mu: f64,
+    ) -> (f64, FactorBlocks<6>) {
+        let between = self.predicted(poses);
+        let residual = se3::log(&(self.measured_inv * between));
+        let s = self.mahalanobis2(&residual);
+        let cost = 0.5 * self.kernel.rho(s, mu);
+        let w = self.kernel.weight(s, mu);
+        let jr_inv = se3::right_jacobian_inverse(&residual);
+        let jt_w = jr_inv.transpose() * (self.information * w);
+        let h = jt_w * jr_inv;
+        let g = jt_w * residual;
+        if self.unary {
+            let zero = Matrix6::zeros();
+            let blocks = FactorBlocks {
+                haa: h,
+                hab: zero,
+                hbb: zero,
+                ga: g,
+                gb: Vector6::zeros(),
+            };
+            return (cost, blocks);
+        }
+        let ad = se3::adjoint(&between.inverse());
+        let ad_t = ad.transpose();
+        let hab = -(ad_t * h);
+        let blocks = FactorBlocks {
+            haa: -(hab * ad),
+            hab,
+            hbb: h,
+            ga: -(ad_t * g),
+            gb: g,
+        };
+        (cost, blocks)
     }
 
     /// Residual and Jacobians at the given estimate.

@@ -15,14 +15,16 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vect
 
 /// Replaces the estimates of the variables that are not `held` by the chordal solution.
 ///
-/// Held variables anchor the problem (as do prior factors). Returns `Ok(false)` and leaves
-/// the estimates untouched if a system is singular.
+/// Held variables anchor the problem (as do prior factors). `order` is the elimination
+/// order of the free variables if already known (see [`NormalEquations::analyse_with_order`]).
+/// Returns `Ok(false)` and leaves the estimates untouched if a system is singular.
 pub(crate) fn chordal_initialize(
     poses: &mut [Isometry3<f64>],
     factors: &[Factor],
     held: &[bool],
+    order: Option<&[usize]>,
 ) -> Result<bool, GraphError> {
-    let mut system = NormalEquations::<3>::analyse(held, factors)?;
+    let mut system = NormalEquations::<3>::analyse_with_order(held, factors, order)?;
     if system.dim() == 0 {
         return Ok(true);
     }

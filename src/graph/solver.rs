@@ -14,7 +14,7 @@ use super::pose_graph::{PoseGraph, StructureCache};
 use super::se3;
 use super::structure::NormalEquations;
 use super::GraphError;
-use nalgebra::{Isometry3, Matrix6, Vector6};
+use nalgebra::{Isometry3, Vector6};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -323,7 +323,12 @@ pub(crate) fn optimize(
     let initial_cost = graph.cost();
     if config.initialization == Initialization::Chordal {
         let t = Instant::now();
-        initialize::chordal_initialize(&mut graph.poses, &graph.factors, &cache.held)?;
+        initialize::chordal_initialize(
+            &mut graph.poses,
+            &graph.factors,
+            &cache.held,
+            Some(&cache.system.order),
+        )?;
         state.profile.initialize_ms = ms_since(t);
     }
     let result = run(graph, &mut cache.system, config, &mut state);
@@ -424,13 +429,9 @@ fn linearize(
     system.clear();
     let mut cost = 0.0;
     for (i, f) in factors.iter().enumerate() {
-        let lin = f.linearize(poses);
-        let s = f.mahalanobis2(&lin.residual);
-        let kernel = f.kernel();
-        cost += 0.5 * kernel.rho(s, mu);
-        let w = kernel.weight(s, mu);
-        let weighted: Matrix6<f64> = f.information() * w;
-        system.add_factor(i, &lin.jac_a, &lin.jac_b, &weighted, &lin.residual);
+        let (c, blocks) = f.normal_blocks(poses, mu);
+        cost += c;
+        system.add_blocks(i, &blocks);
     }
     cost
 }

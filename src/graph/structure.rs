@@ -11,7 +11,6 @@ use super::factors::Factor;
 use super::ordering;
 use super::GraphError;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymmetricOrdering,
@@ -31,18 +30,33 @@ struct FactorSlots {
     block_a: usize,
     /// Block column of the second variable, or `HELD` (also for unary factors).
     block_b: usize,
-    /// Offset of the off-diagonal block's rows within its column (block rank × B).
+    /// Offset of the off-diagonal block's rows among the strictly-lower blocks of its
+    /// column (block rank × B).
     off_rank: usize,
+}
+
+/// One factor's contribution to the normal equations.
+pub(crate) struct FactorBlocks<const B: usize> {
+    /// `J_aᵀ W J_a`.
+    pub haa: SMatrix<f64, B, B>,
+    /// `J_aᵀ W J_b`.
+    pub hab: SMatrix<f64, B, B>,
+    /// `J_bᵀ W J_b`.
+    pub hbb: SMatrix<f64, B, B>,
+    /// `J_aᵀ W r`.
+    pub ga: SVector<f64, B>,
+    /// `J_bᵀ W r`.
+    pub gb: SVector<f64, B>,
 }
 
 /// Sparse normal equations with B×B blocks and a reusable symbolic Cholesky factorisation.
 pub(crate) struct NormalEquations<const B: usize> {
-    /// Block column → variable index.
+    /// Block column → variable index (block columns are in elimination order).
     pub var_of: Vec<usize>,
+    /// Elimination order as indices into the free variables in insertion order.
+    pub order: Vec<usize>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-    /// Number of strictly-upper blocks in each block column.
-    off_count: Vec<usize>,
     slots: Vec<FactorSlots>,
     /// Undamped Hessian values (upper triangle).
     hessian: Vec<f64>,
@@ -62,23 +76,64 @@ pub(crate) struct NormalEquations<const B: usize> {
 impl<const B: usize> NormalEquations<B> {
     /// Analyses the structure for the given factors with the given held variables.
     pub fn analyse(held: &[bool], factors: &[Factor]) -> Result<Self, GraphError> {
-        let mut block_of = vec![HELD; held.len()];
-        let mut var_of = Vec::new();
+        Self::analyse_with_order(held, factors, None)
+    }
+
+    /// Like [`NormalEquations::analyse`], with the elimination order of the free variables
+    /// (indices into the free variables in insertion order) given, e.g. to share the ordering
+    /// of another system with the same graph; `None` computes it by AMD.
+    pub fn analyse_with_order(
+        held: &[bool],
+        factors: &[Factor],
+        order: Option<&[usize]>,
+    ) -> Result<Self, GraphError> {
+        let mut free_of = vec![HELD; held.len()];
+        let mut free = Vec::new();
         for (v, &h) in held.iter().enumerate() {
             if !h {
-                block_of[v] = var_of.len();
-                var_of.push(v);
+                free_of[v] = free.len();
+                free.push(v);
             }
         }
-        let nb = var_of.len();
-        // Strictly-upper block rows of each block column.
-        let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); nb];
-        for f in factors.iter().filter(|f| !f.is_unary()) {
-            let [a, b] = f.vars();
-            let (ba, bb) = (block_of[a], block_of[b]);
-            if ba != HELD && bb != HELD && ba != bb {
-                rows_of[ba.max(bb)].push(ba.min(bb));
+        let nb = free.len();
+        let pairs: Vec<(usize, usize)> = factors
+            .iter()
+            .filter(|f| !f.is_unary())
+            .filter_map(|f| {
+                let [a, b] = f.vars();
+                let (fa, fb) = (free_of[a], free_of[b]);
+                (fa != HELD && fb != HELD && fa != fb).then_some((fa, fb))
+            })
+            .collect();
+        let order = match order {
+            Some(o) if o.len() == nb => o.to_vec(),
+            _ => {
+                let mut upper: Vec<Vec<usize>> = vec![Vec::new(); nb];
+                for &(fa, fb) in &pairs {
+                    upper[fa.max(fb)].push(fa.min(fb));
+                }
+                for rows in &mut upper {
+                    rows.sort_unstable();
+                    rows.dedup();
+                }
+                ordering::block_amd(&upper)?
             }
+        };
+        // Block columns follow the elimination order, so faer needs no permutation.
+        let mut position = vec![0usize; nb];
+        for (k, &fi) in order.iter().enumerate() {
+            position[fi] = k;
+        }
+        let var_of: Vec<usize> = order.iter().map(|&fi| free[fi]).collect();
+        let block_of: Vec<usize> = free_of
+            .iter()
+            .map(|&fi| if fi == HELD { HELD } else { position[fi] })
+            .collect();
+        // Strictly-lower block rows of each block column.
+        let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); nb];
+        for &(fa, fb) in &pairs {
+            let (pa, pb) = (position[fa], position[fb]);
+            rows_of[pa.min(pb)].push(pa.max(pb));
         }
         for rows in &mut rows_of {
             rows.sort_unstable();
@@ -86,8 +141,8 @@ impl<const B: usize> NormalEquations<B> {
         }
         let off_count: Vec<usize> = rows_of.iter().map(Vec::len).collect();
 
-        // Scalar upper CSC: in every scalar column of block column c, the rows of the
-        // strictly-upper blocks (B each) followed by the diagonal block's upper part.
+        // Scalar lower CSC: in scalar column k of block column c, the diagonal block's rows
+        // k..B, then the rows of the strictly-lower blocks (B each).
         let n = B * nb;
         let nnz: usize = off_count.iter().map(|m| B * B * m + B * (B + 1) / 2).sum();
         let mut col_ptr = Vec::with_capacity(n + 1);
@@ -96,11 +151,11 @@ impl<const B: usize> NormalEquations<B> {
         col_ptr.push(0);
         for (c, rows) in rows_of.iter().enumerate() {
             for k in 0..B {
+                diag_pos.push(row_idx.len());
+                row_idx.extend((k..B).map(|i| B * c + i));
                 for &r in rows {
                     row_idx.extend((0..B).map(|i| B * r + i));
                 }
-                row_idx.extend((0..=k).map(|i| B * c + i));
-                diag_pos.push(row_idx.len() - 1);
                 col_ptr.push(row_idx.len());
             }
         }
@@ -113,7 +168,7 @@ impl<const B: usize> NormalEquations<B> {
                 let block_b = if f.is_unary() { HELD } else { block_of[b] };
                 let mut off_rank = 0;
                 if block_a != HELD && block_b != HELD && block_a != block_b {
-                    let (r, c) = (block_a.min(block_b), block_a.max(block_b));
+                    let (c, r) = (block_a.min(block_b), block_a.max(block_b));
                     // The row was inserted above, so the search succeeds.
                     off_rank = B * rows_of[c].binary_search(&r).unwrap_or(0);
                 }
@@ -125,9 +180,11 @@ impl<const B: usize> NormalEquations<B> {
             })
             .collect();
 
-        let order = ordering::block_amd(&rows_of)?;
-        let (fwd, inv) = ordering::expand(&order, B);
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        // faer's symbolic analysis without a permutation reads the upper triangle, while its
+        // supernodal numeric factorisation consumes the lower one as is: analyse the
+        // transposed pattern once, hand over the lower values every iteration.
+        let (up_ptr, up_idx) = transpose_pattern(n, &col_ptr, &row_idx);
+        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_idx);
         let params = CholeskySymbolicParams {
             // faer picks the simplicial (column by column) factorisation for long chains
             // with little fill, which measured 2× slower than the supernodal one on a
@@ -135,13 +192,9 @@ impl<const B: usize> NormalEquations<B> {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
         };
-        let symbolic = factorize_symbolic_cholesky(
-            pattern,
-            Side::Upper,
-            SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, n)),
-            params,
-        )
-        .map_err(|e| GraphError::LinearAlgebra(format!("{e:?}")))?;
+        let symbolic =
+            factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Identity, params)
+                .map_err(|e| GraphError::LinearAlgebra(format!("{e:?}")))?;
         let par = Par::Seq;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
@@ -152,11 +205,11 @@ impl<const B: usize> NormalEquations<B> {
         let l_values = vec![0.0; symbolic.len_val()];
         Ok(Self {
             var_of,
+            order,
             hessian: vec![0.0; row_idx.len()],
             damped: vec![0.0; row_idx.len()],
             col_ptr,
             row_idx,
-            off_count,
             slots,
             diag_pos,
             gradient: vec![0.0; n],
@@ -208,15 +261,27 @@ impl<const B: usize> NormalEquations<B> {
             self.add_gradient(s.block_b, &(jac_b.transpose() * wr));
         }
         if let (Some(jta_w), true) = (jta_w, b_free) {
-            let hab = jta_w * jac_b;
-            if s.block_a == s.block_b {
-                // Both ends on one variable: H += JaᵀWJb + JbᵀWJa.
-                self.add_diag_block(s.block_a, &(hab + hab.transpose()));
-            } else if s.block_a < s.block_b {
-                self.add_off_block(s.block_b, s.off_rank, &hab, false);
-            } else {
-                self.add_off_block(s.block_a, s.off_rank, &hab, true);
-            }
+            self.add_cross_block(&s, &(jta_w * jac_b));
+        }
+    }
+
+    /// Adds precomputed blocks of one factor: `H_aa`, `H_ab` (rows of the first variable),
+    /// `H_bb` and the gradients `g_a`, `g_b`. The second-variable terms are ignored for unary
+    /// factors; the blocks of held variables are skipped.
+    pub fn add_blocks(&mut self, factor_index: usize, blocks: &FactorBlocks<B>) {
+        let s = self.slots[factor_index];
+        let a_free = s.block_a != HELD;
+        let b_free = s.block_b != HELD;
+        if a_free {
+            self.add_diag_block(s.block_a, &blocks.haa);
+            self.add_gradient(s.block_a, &blocks.ga);
+        }
+        if b_free {
+            self.add_diag_block(s.block_b, &blocks.hbb);
+            self.add_gradient(s.block_b, &blocks.gb);
+        }
+        if a_free && b_free {
+            self.add_cross_block(&s, &blocks.hab);
         }
     }
 
@@ -247,29 +312,33 @@ impl<const B: usize> NormalEquations<B> {
     }
 
     fn add_diag_block(&mut self, block: usize, h: &SMatrix<f64, B, B>) {
-        let m = B * self.off_count[block];
         for k in 0..B {
-            let start = self.col_ptr[B * block + k] + m;
-            for (i, d) in self.hessian[start..=start + k].iter_mut().enumerate() {
+            let start = self.col_ptr[B * block + k];
+            for (d, i) in self.hessian[start..start + B - k].iter_mut().zip(k..B) {
                 *d += h[(i, k)];
             }
         }
     }
 
-    /// Adds block `h` (rows of the lower-numbered block, columns of `col_block`), or its
-    /// transpose when `transpose` is set.
-    fn add_off_block(
-        &mut self,
-        col_block: usize,
-        rank: usize,
-        h: &SMatrix<f64, B, B>,
-        transpose: bool,
-    ) {
+    /// Adds `H_ab` (rows of the factor's first variable, columns of its second) where it
+    /// lands in the lower triangle.
+    fn add_cross_block(&mut self, s: &FactorSlots, hab: &SMatrix<f64, B, B>) {
+        if s.block_a == s.block_b {
+            // Both ends on one variable: H += JaᵀWJb + JbᵀWJa.
+            self.add_diag_block(s.block_a, &(hab + hab.transpose()));
+            return;
+        }
+        // The stored block has the later variable's rows and the earlier one's columns.
+        let (col, transpose) = if s.block_a > s.block_b {
+            (s.block_b, false)
+        } else {
+            (s.block_a, true)
+        };
         for k in 0..B {
-            let start = self.col_ptr[B * col_block + k] + rank;
+            let start = self.col_ptr[B * col + k] + (B - k) + s.off_rank;
             let dst = &mut self.hessian[start..start + B];
             for (i, d) in dst.iter_mut().enumerate() {
-                *d += if transpose { h[(k, i)] } else { h[(i, k)] };
+                *d += if transpose { hab[(k, i)] } else { hab[(i, k)] };
             }
         }
     }
@@ -291,7 +360,7 @@ impl<const B: usize> NormalEquations<B> {
         let result = self.symbolic.factorize_numeric_llt::<f64>(
             &mut self.l_values,
             matrix,
-            Side::Upper,
+            Side::Lower,
             Default::default(),
             Par::Seq,
             MemStack::new(&mut self.workspace),
@@ -328,4 +397,24 @@ impl<const B: usize> NormalEquations<B> {
     pub fn factor_nnz(&self) -> usize {
         self.l_values.len()
     }
+}
+
+/// Pattern of the transpose of an `n × n` CSC pattern (rows sorted in every column).
+fn transpose_pattern(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    let mut count = vec![0usize; n + 1];
+    for &r in row_idx {
+        count[r + 1] += 1;
+    }
+    for i in 0..n {
+        count[i + 1] += count[i];
+    }
+    let ptr = count.clone();
+    let mut idx = vec![0usize; row_idx.len()];
+    for c in 0..n {
+        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+            idx[count[r]] = c;
+            count[r] += 1;
+        }
+    }
+    (ptr, idx)
 }
