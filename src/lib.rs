@@ -6,12 +6,14 @@
 //! - [`landmarks`]: a session's boulder detections fused into an object map;
 //! - [`relocalize`]: associations → consistency graph → cliques → alignment ([`align`]) →
 //!   verification → `prior_from_query` or a refusal;
+//! - [`graph`]: the SE(3) pose graph that relocalizations anchor;
 //! - [`eval`]: evaluation on the real LunarLoc traverses;
 //! - [`sim`]: generated boulder fields for tests and the demo.
 #![warn(missing_docs)]
 
 pub mod align;
 pub mod eval;
+pub mod graph;
 pub mod io;
 pub mod landmarks;
 pub mod relocalize;

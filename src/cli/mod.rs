@@ -4,6 +4,7 @@ mod bench;
 mod config;
 mod demo;
 mod eval;
+mod graph;
 mod map;
 mod relocalize;
 
@@ -41,6 +42,8 @@ pub enum Command {
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// SE(3) pose graph: optimise g2o / TORO files, benchmark, corrupt, compare.
+    Graph(graph::GraphArgs),
     /// Print or check the configuration.
     #[command(subcommand)]
     Config(config::ConfigCommand),
@@ -56,6 +59,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Eval(cmd) => eval::run(&cmd, &config),
         Command::Bench(cmd) => bench::run(&cmd, &config),
         Command::Config(cmd) => config::run(&cmd, &config),
+        Command::Graph(args) => graph::run(&args),
     }
 }
 

@@ -1,0 +1,324 @@
+#!/usr/bin/env python3
+"""Pose-graph benchmark of issue 3 (run through scripts/bench_posegraph.sh).
+
+GTSAM and segloc solve sphere2500 (TORO 3D, 2,500 poses, 4,949 edges, no vertices) with pose 0
+fixed and the chained-odometry initial estimate. Both run on one thread pinned to the same
+core; runs alternate so that both see the same machine load. The TORO information entries are
+in (x y z roll pitch yaw) order and are reordered to GTSAM's (rotation, translation) tangent
+here (GTSAM's own readG2o keeps the file order, which gives a different problem: cost 1133).
+"""
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+import gtsam
+
+SECTION = "## Pose graph (issue 3)"
+
+
+def data_file(name):
+    path = os.path.join(os.path.dirname(gtsam.__file__), "Data", name)
+    if not os.path.exists(path):
+        sys.exit(f"{path} not found in the gtsam package")
+    return path
+
+
+def read_toro(path):
+    """Edges (i, j, Pose3, information in GTSAM order) of a TORO 3D file."""
+    edges = []
+    for line in open(path):
+        t = line.split()
+        if not t or t[0] != "EDGE3":
+            continue
+        i, j = int(t[1]), int(t[2])
+        x, y, z, roll, pitch, yaw = map(float, t[3:9])
+        upper = list(map(float, t[9:30]))
+        info = np.zeros((6, 6))
+        k = 0
+        for a in range(6):
+            for b in range(a, 6):
+                info[a, b] = info[b, a] = upper[k]
+                k += 1
+        perm = [3, 4, 5, 0, 1, 2]  # (x y z roll pitch yaw) -> (rotation, translation)
+        info = info[np.ix_(perm, perm)]
+        pose = gtsam.Pose3(gtsam.Rot3.RzRyRx(roll, pitch, yaw), gtsam.Point3(x, y, z))
+        edges.append((i, j, pose, info))
+    return edges
+
+
+def build_problem(edges):
+    graph = gtsam.NonlinearFactorGraph()
+    for i, j, pose, info in edges:
+        graph.add(gtsam.BetweenFactorPose3(i, j, pose, gtsam.noiseModel.Gaussian.Information(info)))
+    initial = gtsam.Values()
+    initial.insert(0, gtsam.Pose3())
+    for i, j, pose, _ in edges:
+        if j == i + 1 and not initial.exists(j):
+            initial.insert(j, initial.atPose3(i).compose(pose))
+    graph.add(gtsam.NonlinearEqualityPose3(0, gtsam.Pose3()))
+    return graph, initial
+
+
+def run_gtsam(graph, initial):
+    params = gtsam.LevenbergMarquardtParams()
+    t0 = time.perf_counter()
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    result = optimizer.optimize()
+    seconds = time.perf_counter() - t0
+    return graph.error(result), optimizer.iterations(), seconds * 1e3
+
+
+def run_gtsam_chordal(graph, initial):
+    """GTSAM's own chordal initialisation (InitializePose3) followed by LM, timed together."""
+    pose_graph = gtsam.NonlinearFactorGraph()
+    for k in range(graph.size()):
+        f = graph.at(k)
+        if isinstance(f, gtsam.BetweenFactorPose3):
+            pose_graph.add(f)
+    pose_graph.add(gtsam.PriorFactorPose3(0, gtsam.Pose3(), gtsam.noiseModel.Unit.Create(6)))
+    t0 = time.perf_counter()
+    start = gtsam.InitializePose3.initialize(pose_graph)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, start, gtsam.LevenbergMarquardtParams())
+    result = optimizer.optimize()
+    seconds = time.perf_counter() - t0
+    return graph.error(result), optimizer.iterations(), seconds * 1e3
+
+
+def segloc(binary, *args):
+    out = subprocess.run([binary, "graph", *args], check=True, capture_output=True, text=True)
+    return out.stdout
+
+
+def segloc_json(binary, *args):
+    return json.loads(segloc(binary, *args, "--json"))
+
+
+def ate(binary, estimate, truth):
+    return json.loads(segloc(binary, "ate", estimate, truth, "--align", "--json"))
+
+
+def drop_replaced(original, corrupted, out):
+    """Writes `corrupted` without the edges that differ from `original` (the oracle)."""
+    kept, dropped = [], 0
+    for a, b in zip(open(original), open(corrupted)):
+        ta, tb = a.split(), b.split()
+        if not tb:
+            continue
+        if all(abs(float(x) - float(y)) < 1e-9 for x, y in zip(ta[3:9], tb[3:9])):
+            kept.append(b)
+        else:
+            dropped += 1
+    open(out, "w").writelines(kept)
+    return dropped
+
+
+def machine():
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
+        for line in out.splitlines():
+            if line.startswith("Model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def git_revision(root):
+    try:
+        rev = subprocess.run(["git", "-C", root, "rev-parse", "--short", "HEAD"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", root, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True).stdout.strip()
+        return rev + ("+changes" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--segloc", required=True)
+    ap.add_argument("--benchmarks", required=True)
+    ap.add_argument("--workdir", required=True)
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--cpu", type=int, default=0)
+    ap.add_argument("--no-write", action="store_true")
+    args = ap.parse_args()
+    os.makedirs(args.workdir, exist_ok=True)
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {args.cpu})  # GTSAM runs in this process: one core
+    pin = ["taskset", "-c", str(args.cpu)] if subprocess.run(
+        ["which", "taskset"], capture_output=True).returncode == 0 else []
+    binary = args.segloc
+    sphere = data_file("sphere2500.txt")
+    truth = data_file("sphere2500_groundtruth.txt")
+
+    def seg(*a):
+        return json.loads(subprocess.run(pin + [binary, "graph", *a, "--json"], check=True,
+                                         capture_output=True, text=True).stdout)
+
+    # --- sphere2500: GTSAM vs segloc, alternating runs ---------------------------------------
+    graph, initial = build_problem(read_toro(sphere))
+    rows = {"gtsam": [], "gtsam_chordal": [], "segloc": [], "segloc_chained": []}
+    for r in range(args.runs):
+        rows["gtsam"].append(run_gtsam(graph, initial))
+        s = seg("optimize", sphere)
+        rows["segloc"].append((s["final_cost"], s["iterations"], s["time_ms"], s))
+        rows["gtsam_chordal"].append(run_gtsam_chordal(graph, initial))
+        s = seg("optimize", sphere, "--init", "chained")
+        rows["segloc_chained"].append((s["final_cost"], s["iterations"], s["time_ms"], s))
+        print(f"run {r + 1}/{args.runs}: gtsam {rows['gtsam'][-1][2]:.1f} ms, "
+              f"segloc {rows['segloc'][-1][2]:.1f} ms, segloc chained {rows['segloc_chained'][-1][2]:.1f} ms",
+              file=sys.stderr)
+    med = {k: statistics.median(x[2] for x in v) for k, v in rows.items()}
+    cost = {k: v[0][0] for k, v in rows.items()}
+    iters = {k: v[0][1] for k, v in rows.items()}
+    g_cost = cost["gtsam"]
+    rel = {k: abs(c - g_cost) / g_cost for k, c in cost.items()}
+    # Ratio per run (same load), then the median.
+    ratio = {k: statistics.median(s[2] / g[2] for s, g in zip(rows[k], rows["gtsam"]))
+             for k in ("segloc", "segloc_chained")}
+    seg_default = rows["segloc"][0][3]
+    seg_chained = rows["segloc_chained"][0][3]
+
+    # --- robustness: 10% of the loop closures replaced by random relative poses ----------------
+    clean_out = os.path.join(args.workdir, "clean_out.txt")
+    seg("optimize", sphere, "-o", clean_out)
+    clean_ate = ate(binary, clean_out, truth)
+    robust_rows = []
+    for seed in range(1, args.seeds + 1):
+        corrupted = os.path.join(args.workdir, f"corrupt_{seed}.txt")
+        segloc(binary, "corrupt", sphere, "-o", corrupted, "--fraction", "0.1", "--seed", str(seed))
+        oracle = os.path.join(args.workdir, f"oracle_{seed}.txt")
+        dropped = drop_replaced(sphere, corrupted, oracle)
+        row = {"seed": seed, "replaced": dropped}
+        oracle_out = os.path.join(args.workdir, f"oracle_{seed}_out.txt")
+        seg("optimize", oracle, "-o", oracle_out)
+        row["oracle"] = ate(binary, oracle_out, truth)
+        for kernel in ("none", "huber", "cauchy", "gnc"):
+            out = os.path.join(args.workdir, f"corrupt_{seed}_{kernel}.txt")
+            rep = seg("optimize", corrupted, "--robust", kernel, "-o", out)
+            row[kernel] = ate(binary, out, truth)
+            row[kernel + "_ms"] = rep["time_ms"]
+        robust_rows.append(row)
+        print(f"seed {seed}: gnc ATE {row['gnc']['position_rmse_m']:.4f} m, oracle "
+              f"{row['oracle']['position_rmse_m']:.4f} m, clean {clean_ate['position_rmse_m']:.4f} m",
+              file=sys.stderr)
+
+    # --- incremental ---------------------------------------------------------------------------
+    inc = seg("bench-incremental")
+
+    # --- report --------------------------------------------------------------------------------
+    c = clean_ate["position_rmse_m"]
+    lines = [
+        SECTION,
+        "",
+        f"Command: `scripts/bench_posegraph.sh --runs {args.runs}` — {datetime.date.today().isoformat()}, "
+        f"commit {git_revision(os.path.dirname(os.path.abspath(args.benchmarks)))}, machine `{machine()}` "
+        f"({os.cpu_count()} cores, shared), gtsam {getattr(gtsam, '__version__', '?')} from PyPI, "
+        f"Python {platform.python_version()}. One thread each, pinned to CPU {args.cpu}; the runs "
+        "alternate so both solvers see the same load; times are medians over the runs and exclude "
+        "file reading; ratio = median over runs of segloc/GTSAM time in the same run.",
+        "",
+        "### sphere2500 (2,500 poses, 4,949 edges, pose 0 fixed, chained-odometry initial estimate)",
+        "",
+        "| solver | final cost | rel. diff to GTSAM | iterations | time (ms) | ratio to GTSAM LM |",
+        "|---|---|---|---|---|---|",
+        f"| GTSAM LM | {g_cost:.6f} | — | {iters['gtsam']} | {med['gtsam']:.1f} | 1 |",
+        f"| GTSAM InitializePose3 + LM | {cost['gtsam_chordal']:.6f} | {rel['gtsam_chordal']:.1e} | "
+        f"{iters['gtsam_chordal']} | {med['gtsam_chordal']:.1f} | {med['gtsam_chordal'] / med['gtsam']:.2f} |",
+        f"| `segloc graph optimize` (default: chordal init, chord steps) | {cost['segloc']:.6f} | "
+        f"{rel['segloc']:.1e} | {iters['segloc']} ({seg_default['factorizations']} factorisations) | "
+        f"{med['segloc']:.1f} | **{ratio['segloc']:.3f}** |",
+        f"| `segloc graph optimize --init chained` (LM from the same start as GTSAM) | "
+        f"{cost['segloc_chained']:.6f} | {rel['segloc_chained']:.1e} | {iters['segloc_chained']} "
+        f"({seg_chained['factorizations']} factorisations) | {med['segloc_chained']:.1f} | "
+        f"{ratio['segloc_chained']:.3f} |",
+        "",
+        "segloc time split (default run): " + ", ".join(
+            f"{k.replace('_ms', '')} {v:.1f} ms" for k, v in seg_default["profile"].items()) + ".",
+        "",
+        "Targets: same final cost (≤ 1e-6 relative) — "
+        + ("met" if max(rel["segloc"], rel["segloc_chained"]) <= 1e-6 else "**not met**")
+        + f"; ≤ ¼ of GTSAM's time — default {'met' if ratio['segloc'] <= 0.25 else '**not met**'} "
+        f"({ratio['segloc']:.3f}), chained start {'met' if ratio['segloc_chained'] <= 0.25 else '**not met**'} "
+        f"({ratio['segloc_chained']:.3f}).",
+        "",
+        "### Wrong loop closures (10% of the 2,450 loop closures replaced by random relative poses)",
+        "",
+        "`segloc graph corrupt --fraction 0.1 --seed N` replaces 245 loop closures by a uniformly random "
+        "rotation and a translation uniform in ±10 m; the robust kernel applies to loop closures only. "
+        "Error = position RMSE (m) against `sphere2500_groundtruth.txt` after a rigid alignment. "
+        f"Clean solution: {c:.4f} m. The *oracle* solves the corrupted file with the wrong closures "
+        "removed, i.e. the best any robust method can do: the 245 true closures that were replaced are "
+        "lost information.",
+        "",
+        "| seed | none | Huber (k=3) | Cauchy (c=3) | GNC → TLS (c=4) | oracle | GNC vs clean | GNC vs oracle | GNC time (ms) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in robust_rows:
+        g = row["gnc"]["position_rmse_m"]
+        o = row["oracle"]["position_rmse_m"]
+        lines.append(
+            f"| {row['seed']} | {row['none']['position_rmse_m']:.4f} | {row['huber']['position_rmse_m']:.4f} | "
+            f"{row['cauchy']['position_rmse_m']:.4f} | {g:.4f} | {o:.4f} | {100 * (g / c - 1):+.1f}% | "
+            f"{100 * (g / o - 1):+.2f}% | {row['gnc_ms']:.0f} |")
+    worst = max(r["gnc"]["position_rmse_m"] / c - 1 for r in robust_rows)
+    worst_oracle = max(abs(r["gnc"]["position_rmse_m"] / r["oracle"]["position_rmse_m"] - 1) for r in robust_rows)
+    lines += [
+        "",
+        f"Target (within 5% of the clean solution): worst seed {100 * worst:+.1f}% — "
+        + ("met" if worst <= 0.05 else "**not met on every seed**")
+        + f"; GNC matches the oracle within {100 * worst_oracle:.2f}% on every seed, so the gap to the clean "
+        "solution is the information of the replaced closures, not outliers leaking in.",
+        "",
+        "### Incremental (synthetic 5,000-pose graph, 200 loop closures; `segloc graph bench-incremental`)",
+        "",
+        "| update | median (ms) | p90 (ms) | max (ms) |",
+        "|---|---|---|---|",
+    ]
+    for key, label in (("odometry_append_ms", "append 1 pose + 1 odometry factor"),
+                       ("odometry_append_full_ms", "same, forced full warm-started re-optimisation"),
+                       ("loop_closure_append_ms", "append 1 pose + odometry + 1 loop closure")):
+        s = inc[key]
+        lines.append(f"| {label} | {s['median']:.3f} | {s['p90']:.3f} | {s['max']:.3f} |")
+    lines += [
+        "",
+        f"Batch solve of the base graph: {inc['batch_ms']:.1f} ms, {inc['batch_iterations']} iterations. "
+        f"{100 * inc['odometry_append_skipped']:.0f}% of odometry appends were recognised as leaving the "
+        "optimum unchanged (zero gradient from the new factor) and needed no solve. Target ≤ 5 ms for one "
+        "pose + one factor: " + ("met" if inc["odometry_append_ms"]["p90"] <= 5 else "**not met**")
+        + "; an append that pulls on the graph (loop closure) re-solves the whole graph: "
+        + f"{inc['loop_closure_append_ms']['median']:.0f} ms median"
+        + (", **above 5 ms**" if inc["loop_closure_append_ms"]["median"] > 5 else "") + ".",
+        "",
+    ]
+    text = "\n".join(lines)
+    print(text)
+    if args.no_write:
+        return
+    try:
+        old = open(args.benchmarks).read()
+    except FileNotFoundError:
+        old = "# Benchmarks\n\n"
+    start = old.find(SECTION)
+    if start < 0:
+        new = old.rstrip("\n") + "\n\n" + text
+    else:
+        end = old.find("\n## ", start + len(SECTION))
+        new = old[:start] + text + ("" if end < 0 else "\n" + old[end + 1:])
+    with open(args.benchmarks + ".tmp", "w") as f:
+        f.write(new.rstrip("\n") + "\n")
+    os.replace(args.benchmarks + ".tmp", args.benchmarks)
+
+
+if __name__ == "__main__":
+    main()

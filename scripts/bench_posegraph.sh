@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Pose-graph benchmark of issue 3: segloc against GTSAM on sphere2500, side by side.
+#
+# Creates a virtual environment under target/bench-venv, installs gtsam from PyPI (it ships
+# sphere2500.txt and its ground truth in its Data/ folder), builds segloc in release mode and
+# runs scripts/bench_posegraph.py, which times GTSAM's Levenberg–Marquardt and
+# `segloc graph optimize` on the same file in one run (one thread each, pinned to one core),
+# checks robustness to wrong loop closures and incremental updates, and writes the section
+# "## Pose graph (issue 3)" of BENCHMARKS.md.
+#
+# Usage: scripts/bench_posegraph.sh [--runs N] [--no-write]
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+TARGET="${CARGO_TARGET_DIR:-$ROOT/target}"
+VENV="$TARGET/bench-venv"
+GTSAM_VERSION="${GTSAM_VERSION:-4.3.0}"
+
+if [ ! -x "$VENV/bin/python" ]; then
+    python3 -m venv "$VENV"
+fi
+if ! "$VENV/bin/python" -c "import gtsam" 2>/dev/null; then
+    "$VENV/bin/pip" install --quiet "gtsam==$GTSAM_VERSION"
+fi
+(cd "$ROOT" && CARGO_TARGET_DIR="$TARGET" cargo build --release --quiet --bin segloc)
+
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1
+exec "$VENV/bin/python" "$ROOT/scripts/bench_posegraph.py" \
+    --segloc "$TARGET/release/segloc" --benchmarks "$ROOT/BENCHMARKS.md" --workdir "$TARGET/bench-posegraph" "$@"

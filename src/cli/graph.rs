@@ -1,0 +1,550 @@
+//! `segloc graph …`: optimise pose-graph files, benchmark incremental updates, inject
+//! outliers and measure trajectory error.
+//!
+//! Exit codes: 0 success, 2 bad input or usage (malformed files, bad options), 1 other
+//! failures (e.g. the output cannot be written).
+
+use anyhow::Context;
+use clap::{Args, Subcommand, ValueEnum};
+use nalgebra::Isometry3;
+use segloc::graph::file::{write_atomic, BuildOptions, FileFormat, GraphFile};
+use segloc::graph::metrics::trajectory_error;
+use segloc::graph::synthetic::{self, SyntheticConfig};
+use segloc::graph::{
+    Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
+    SolverConfig,
+};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `segloc graph`.
+#[derive(Args, Debug)]
+pub struct GraphArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: GraphCommand,
+}
+
+/// Subcommands of `segloc graph`.
+#[derive(Subcommand, Debug)]
+pub enum GraphCommand {
+    /// Optimise a g2o or TORO 3D file.
+    Optimize(OptimizeArgs),
+    /// Time appending poses and factors to a synthetic graph and re-optimising.
+    BenchIncremental(BenchIncrementalArgs),
+    /// Replace a fraction of a file's loop closures with random relative poses.
+    Corrupt(CorruptArgs),
+    /// Trajectory error of an estimate against ground truth.
+    Ate(AteArgs),
+}
+
+/// Robust kernel choice on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RobustChoice {
+    /// Plain least squares.
+    None,
+    /// Huber.
+    Huber,
+    /// Cauchy.
+    Cauchy,
+    /// Geman–McClure by graduated non-convexity.
+    Gnc,
+}
+
+/// Initialisation choice on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InitChoice {
+    /// Chordal without a robust kernel, chained with one.
+    Auto,
+    /// The file's vertices, or chained odometry when it has none.
+    Chained,
+    /// Chordal relaxation (rotations, then translations) before iterating.
+    Chordal,
+}
+
+/// Arguments of `segloc graph optimize`.
+#[derive(Args, Debug)]
+pub struct OptimizeArgs {
+    /// Input file (g2o `VERTEX_SE3:QUAT`/`EDGE_SE3:QUAT` or TORO `VERTEX3`/`EDGE3`).
+    pub input: PathBuf,
+    /// Write the optimised graph here (g2o if the name ends in .g2o, else the input's format).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Robust kernel on the loop closures (edges other than (i, i+1)).
+    #[arg(long, value_enum, default_value_t = RobustChoice::None)]
+    pub robust: RobustChoice,
+    /// Kernel scale on the Mahalanobis distance (default: 3 for Huber and Cauchy, 4 for GNC).
+    #[arg(long)]
+    pub robust_scale: Option<f64>,
+    /// Apply the robust kernel to odometry edges too.
+    #[arg(long)]
+    pub robust_odometry: bool,
+    /// Use Gauss–Newton instead of Levenberg–Marquardt.
+    #[arg(long)]
+    pub gauss_newton: bool,
+    /// Initial estimate: the file's (chained odometry without vertices), the chordal
+    /// relaxation, or auto (chordal without a robust kernel, since the relaxation is not
+    /// robust to wrong loop closures; the file's otherwise).
+    #[arg(long, value_enum, default_value_t = InitChoice::Auto)]
+    pub init: InitChoice,
+    /// Chord steps after each factorisation (overrides the configuration).
+    #[arg(long)]
+    pub chord_steps: Option<usize>,
+    /// Solver configuration file (TOML, fields of `SolverConfig`).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Print the effective solver configuration as TOML and exit.
+    #[arg(long)]
+    pub print_config: bool,
+    /// Print one JSON object with the results.
+    #[arg(long)]
+    pub json: bool,
+    /// Solve this many times from the same start and report the fastest run (`time_ms`)
+    /// and the median (`time_median_ms`), for timing on a busy machine.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+}
+
+/// Arguments of `segloc graph bench-incremental`.
+#[derive(Args, Debug)]
+pub struct BenchIncrementalArgs {
+    /// Poses in the base graph.
+    #[arg(long, default_value_t = 5000)]
+    pub poses: usize,
+    /// Loop closures in the base graph.
+    #[arg(long, default_value_t = 200)]
+    pub loop_closures: usize,
+    /// Number of timed appends.
+    #[arg(long, default_value_t = 50)]
+    pub appends: usize,
+    /// Random seed.
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+    /// Print one JSON object with the results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `segloc graph corrupt`.
+#[derive(Args, Debug)]
+pub struct CorruptArgs {
+    /// Input file.
+    pub input: PathBuf,
+    /// Output file (same format as the input unless it ends in .g2o).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Fraction of loop closures to replace.
+    #[arg(long, default_value_t = 0.1)]
+    pub fraction: f64,
+    /// Half-width of the box the random translations are drawn from.
+    #[arg(long, default_value_t = 10.0)]
+    pub half_width_m: f64,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+/// Arguments of `segloc graph ate`.
+#[derive(Args, Debug)]
+pub struct AteArgs {
+    /// Estimated graph (its vertices; chained odometry if it has none).
+    pub estimate: PathBuf,
+    /// Ground-truth graph (same rule).
+    pub truth: PathBuf,
+    /// Align the estimate to the truth with a rigid transform first.
+    #[arg(long)]
+    pub align: bool,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `segloc graph …`; returns the process exit code.
+pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
+    let result = match &args.command {
+        GraphCommand::Optimize(a) => optimize(a),
+        GraphCommand::BenchIncremental(a) => bench_incremental(a),
+        GraphCommand::Corrupt(a) => corrupt(a),
+        GraphCommand::Ate(a) => ate(a),
+    };
+    match result {
+        Ok(()) => Ok(0),
+        Err(e) => {
+            // Bad input (files, options) is exit code 2; anything else propagates.
+            if let Some(g) = e.downcast_ref::<GraphError>() {
+                let bad_input = !matches!(g, GraphError::Io { .. } | GraphError::LinearAlgebra(_))
+                    || is_read_error(g);
+                if bad_input {
+                    eprintln!("error: {e:#}");
+                    return Ok(2);
+                }
+            }
+            if e.downcast_ref::<UsageError>().is_some() {
+                eprintln!("error: {e:#}");
+                return Ok(2);
+            }
+            Err(e)
+        }
+    }
+}
+
+/// An invalid command-line value.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct UsageError(String);
+
+fn is_read_error(e: &GraphError) -> bool {
+    matches!(e, GraphError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound
+        || source.kind() == std::io::ErrorKind::InvalidData)
+}
+
+fn read_file(path: &Path) -> anyhow::Result<GraphFile> {
+    let file = GraphFile::read(path)?;
+    for w in &file.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(file)
+}
+
+fn output_format(path: &Path, input: FileFormat) -> FileFormat {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("g2o") => FileFormat::G2o,
+        _ => input,
+    }
+}
+
+fn kernel_of(choice: RobustChoice, scale: Option<f64>) -> anyhow::Result<RobustKernel> {
+    if let Some(s) = scale {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(UsageError(format!("--robust-scale must be positive, got {s}")).into());
+        }
+    }
+    Ok(match choice {
+        RobustChoice::None => RobustKernel::None,
+        RobustChoice::Huber => RobustKernel::Huber {
+            k: scale.unwrap_or(3.0),
+        },
+        RobustChoice::Cauchy => RobustKernel::Cauchy {
+            c: scale.unwrap_or(3.0),
+        },
+        RobustChoice::Gnc => RobustKernel::Gnc {
+            c: scale.unwrap_or(4.0),
+        },
+    })
+}
+
+#[derive(Serialize)]
+struct OptimizeOutput<'a> {
+    poses: usize,
+    factors: usize,
+    initial_cost: f64,
+    final_cost: f64,
+    iterations: usize,
+    factorizations: usize,
+    time_ms: f64,
+    time_median_ms: f64,
+    repeat: usize,
+    read_ms: f64,
+    init: &'a str,
+    profile: &'a segloc::graph::Profile,
+    converged: bool,
+    termination: segloc::graph::Termination,
+    components: usize,
+    robust: &'a str,
+    output: Option<&'a Path>,
+    warnings: &'a [String],
+}
+
+fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
+    let mut config = match &a.config {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|source| GraphError::Io {
+                path: p.clone(),
+                source,
+            })?;
+            toml::from_str::<SolverConfig>(&text)
+                .map_err(|e| UsageError(format!("{}: {e}", p.display())))?
+        }
+        None => SolverConfig::default(),
+    };
+    if a.gauss_newton {
+        config.algorithm = Algorithm::GaussNewton;
+    }
+    let chordal = match a.init {
+        InitChoice::Auto => a.robust == RobustChoice::None,
+        InitChoice::Chained => false,
+        InitChoice::Chordal => true,
+    };
+    if chordal {
+        config.initialization = Initialization::Chordal;
+    }
+    if let Some(c) = a.chord_steps {
+        config.chord_steps = c;
+    }
+    if a.print_config {
+        print!("{}", toml::to_string(&config)?);
+        return Ok(());
+    }
+    let kernel = kernel_of(a.robust, a.robust_scale)?;
+    let t_read = Instant::now();
+    let file = read_file(&a.input)?;
+    let options = BuildOptions {
+        loop_closure_kernel: kernel,
+        odometry_kernel: if a.robust_odometry {
+            kernel
+        } else {
+            RobustKernel::None
+        },
+        fix_first: true,
+    };
+    let mut graph = file.to_pose_graph(&options)?;
+    let read_ms = t_read.elapsed().as_secs_f64() * 1e3;
+    let mut report = graph.optimize(&config)?;
+    let mut times = vec![report.time_ms];
+    for _ in 1..a.repeat.max(1) {
+        // Timing only: solve fresh copies and keep the fastest run's report.
+        let mut again = file.to_pose_graph(&options)?;
+        let r = again.optimize(&config)?;
+        times.push(r.time_ms);
+        if r.time_ms < report.time_ms {
+            report = r;
+            graph = again;
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let time_median_ms = times[times.len() / 2];
+    if let Some(out) = &a.output {
+        let fmt = output_format(out, file.format);
+        let mut written = GraphFile::from_pose_graph(&graph, fmt)?;
+        if fmt == FileFormat::Toro {
+            written.fixed.clear();
+        }
+        written
+            .write(out, fmt)
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    let robust = format!("{:?}", a.robust).to_lowercase();
+    if a.json {
+        let out = OptimizeOutput {
+            poses: report.poses,
+            factors: report.factors,
+            initial_cost: report.initial_cost,
+            final_cost: report.final_cost,
+            iterations: report.iterations,
+            factorizations: report.factorizations,
+            time_ms: report.time_ms,
+            time_median_ms,
+            repeat: times.len(),
+            read_ms,
+            init: if chordal { "chordal" } else { "chained" },
+            profile: &report.profile,
+            converged: report.converged,
+            termination: report.termination,
+            components: report.components.len(),
+            robust: &robust,
+            output: a.output.as_deref(),
+            warnings: &file.warnings,
+        };
+        println!("{}", serde_json::to_string(&out)?);
+    } else {
+        println!(
+            "{}: {} poses, {} factors, {} component(s)",
+            a.input.display(),
+            report.poses,
+            report.factors,
+            report.components.len()
+        );
+        for it in &report.log {
+            println!(
+                "  iter {:3}  cost {:.9e} -> {:.9e}  lambda {:.1e}  |step| {:.2e}  rejected {}{}{}",
+                it.iteration,
+                it.cost_before,
+                it.cost_after,
+                it.lambda,
+                it.step_max,
+                it.rejected_steps,
+                if report.gnc_stages > 0 {
+                    format!("  mu {:.3}", it.mu)
+                } else {
+                    String::new()
+                },
+                if it.chord { "  (chord)" } else { "" }
+            );
+        }
+        let p = &report.profile;
+        println!(
+            "time: analysis {:.1} ms, initialize {:.1} ms, linearize {:.1} ms, factorize {:.1} ms ({} times), solve {:.1} ms, cost {:.1} ms; factor nnz {}",
+            p.analysis_ms, p.initialize_ms, p.linearize_ms, p.factorize_ms, report.factorizations, p.solve_ms, p.cost_ms, report.factor_nnz
+        );
+        println!(
+            "initial cost {:.6}, final cost {:.6}, {} iterations, {:.1} ms, {:?}",
+            report.initial_cost,
+            report.final_cost,
+            report.iterations,
+            report.time_ms,
+            report.termination
+        );
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct BenchOutput {
+    poses: usize,
+    factors: usize,
+    batch_ms: f64,
+    batch_iterations: usize,
+    /// One pose + its odometry factor; the update detects that the optimum is unchanged.
+    odometry_append_ms: Summary,
+    /// Fraction of odometry appends that needed no solve.
+    odometry_append_skipped: f64,
+    /// One pose + its odometry factor, with a forced full warm-started re-optimisation.
+    odometry_append_full_ms: Summary,
+    /// One pose + odometry + a loop closure to a pose 40–90 steps back (full re-solve).
+    loop_closure_append_ms: Summary,
+    loop_closure_append_iterations: Summary,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    median: f64,
+    p90: f64,
+    max: f64,
+}
+
+fn summarise(mut v: Vec<f64>) -> Summary {
+    if v.is_empty() {
+        return Summary {
+            median: f64::NAN,
+            p90: f64::NAN,
+            max: f64::NAN,
+        };
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    Summary {
+        median: at(0.5),
+        p90: at(0.9),
+        max: v[v.len() - 1],
+    }
+}
+
+fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
+    if a.poses < 100 || a.appends == 0 {
+        return Err(UsageError("need --poses >= 100 and --appends >= 1".into()).into());
+    }
+    let total = a.poses + 3 * a.appends + 1;
+    let synth = synthetic::generate(&SyntheticConfig {
+        poses: total,
+        loop_closures: a.loop_closures,
+        seed: a.seed,
+        ..SyntheticConfig::default()
+    });
+    // Base graph: the first `poses` poses and the factors among them.
+    let mut base = synth.file.clone();
+    let n = a.poses as u64;
+    base.vertices.retain(|v| v.id < n);
+    base.edges.retain(|e| e.from < n && e.to < n);
+    let graph = base.to_pose_graph(&BuildOptions::default())?;
+    let mut inc = IncrementalGraph::new(graph, IncrementalConfig::default());
+    let batch = inc.update()?;
+    let (batch_ms, batch_iterations, factors) = match &batch.report {
+        Some(r) => (r.time_ms, r.iterations, r.factors),
+        None => (batch.time_ms, 0, inc.graph().num_factors()),
+    };
+    let odometry: Vec<_> = synth
+        .file
+        .edges
+        .iter()
+        .filter(|e| e.to == e.from + 1)
+        .collect();
+    let mut odo_ms = Vec::new();
+    let mut skipped = 0usize;
+    let mut odo_full_ms = Vec::new();
+    let mut loop_ms = Vec::new();
+    let mut loop_it = Vec::new();
+    let mut next = n;
+    for k in 0..a.appends {
+        // One pose and its odometry factor.
+        let e = odometry[(next - 1) as usize];
+        let t = Instant::now();
+        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
+        let r = inc.update()?;
+        odo_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        skipped += usize::from(!r.optimized);
+        next += 1;
+        // The same, with a forced full re-optimisation.
+        let e = odometry[(next - 1) as usize];
+        let t = Instant::now();
+        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
+        inc.invalidate();
+        inc.update()?;
+        odo_full_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        next += 1;
+        // One pose, its odometry and a loop closure back to a pose 40–90 steps earlier.
+        let e = odometry[(next - 1) as usize];
+        let back = next.saturating_sub(40 + (7 * k as u64) % 50);
+        let z = synth.truth[back as usize].inv_mul(&synth.truth[next as usize]);
+        let t = Instant::now();
+        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
+        inc.graph_mut()
+            .add_between(back, next, z, e.information, RobustKernel::None)?;
+        let r = inc.update()?;
+        loop_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        loop_it.push(r.report.map_or(0.0, |r| r.iterations as f64));
+        next += 1;
+    }
+    let out = BenchOutput {
+        poses: a.poses,
+        factors,
+        batch_ms,
+        batch_iterations,
+        odometry_append_ms: summarise(odo_ms),
+        odometry_append_skipped: skipped as f64 / a.appends as f64,
+        odometry_append_full_ms: summarise(odo_full_ms),
+        loop_closure_append_ms: summarise(loop_ms),
+        loop_closure_append_iterations: summarise(loop_it),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&out)?);
+    } else {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    }
+    Ok(())
+}
+
+fn corrupt(a: &CorruptArgs) -> anyhow::Result<()> {
+    let valid =
+        (0.0..=1.0).contains(&a.fraction) && a.half_width_m.is_finite() && a.half_width_m > 0.0;
+    if !valid {
+        return Err(UsageError("need 0 <= --fraction <= 1 and --half-width-m > 0".into()).into());
+    }
+    let mut file = read_file(&a.input)?;
+    let replaced =
+        synthetic::corrupt_loop_closures(&mut file.edges, a.fraction, a.half_width_m, a.seed);
+    let fmt = output_format(&a.output, file.format);
+    write_atomic(&a.output, file.to_text(fmt).as_bytes())?;
+    eprintln!(
+        "replaced {} of {} edges with random relative poses",
+        replaced.len(),
+        file.edges.len()
+    );
+    Ok(())
+}
+
+fn ate(a: &AteArgs) -> anyhow::Result<()> {
+    let est = read_file(&a.estimate)?.initial_estimates();
+    let truth = read_file(&a.truth)?.initial_estimates();
+    let err = trajectory_error(&est, &truth, a.align);
+    if a.json {
+        println!("{}", serde_json::to_string(&err)?);
+    } else {
+        println!(
+            "{} poses: position RMSE {:.6} m (max {:.6} m), rotation RMSE {:.6} rad",
+            err.matched, err.position_rmse_m, err.position_max_m, err.rotation_rmse_rad
+        );
+    }
+    let _ = Isometry3::<f64>::identity;
+    Ok(())
+}

@@ -1,0 +1,216 @@
+//! `segloc graph …` end to end: results, files and bad input (exit code 2, no panic).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn segloc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_segloc"))
+        .args(args)
+        .output()
+        .expect("run segloc")
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+const INFO: &str = "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1";
+
+/// A 4-pose square with a slightly inconsistent loop closure, TORO, no vertices.
+fn square_toro() -> String {
+    let h = std::f64::consts::FRAC_PI_2;
+    let mut s = String::new();
+    for i in 0..3 {
+        s += &format!("EDGE3 {i} {} 1 0 0 0 0 {h} {INFO}\n", i + 1);
+    }
+    s += &format!("EDGE3 3 0 1.1 0 0 0 0 {h} {INFO}\n");
+    s
+}
+
+#[test]
+fn optimize_prints_one_json_object_with_the_costs() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "square.graph", &square_toro());
+    let o = segloc(&["graph", "optimize", &input, "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "poses",
+        "factors",
+        "initial_cost",
+        "final_cost",
+        "iterations",
+        "time_ms",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    assert_eq!(v["poses"], 4);
+    assert_eq!(v["factors"], 4);
+    let (c0, c1) = (
+        v["initial_cost"].as_f64().unwrap(),
+        v["final_cost"].as_f64().unwrap(),
+    );
+    assert!(c1 < c0 && c1 > 0.0, "{c0} -> {c1}");
+}
+
+#[test]
+fn output_round_trips_in_both_formats() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "square.graph", &square_toro());
+    for out_name in ["out.g2o", "out.graph"] {
+        let out = dir.path().join(out_name).to_string_lossy().into_owned();
+        let o = segloc(&["graph", "optimize", &input, "-o", &out, "--json"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let first: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        // Re-optimising the written optimum starts (and stays) at the same cost.
+        let o = segloc(&["graph", "optimize", &out, "--json", "--init", "chained"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let again: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let c = first["final_cost"].as_f64().unwrap();
+        let c2 = again["initial_cost"].as_f64().unwrap();
+        assert!(
+            (c - c2).abs() <= 1e-9 * c.max(1.0),
+            "{out_name}: {c} vs {c2}"
+        );
+        let text = std::fs::read_to_string(&out).unwrap();
+        let tag = if out_name.ends_with(".g2o") {
+            "VERTEX_SE3:QUAT"
+        } else {
+            "VERTEX3"
+        };
+        assert!(
+            text.starts_with(tag),
+            "{out_name}: {}",
+            &text[..40.min(text.len())]
+        );
+    }
+}
+
+#[test]
+fn unknown_tags_are_skipped_with_one_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("FOO 1 2 3\n{}BAR x\nFOO 4\n", square_toro());
+    let input = write(dir.path(), "tags.graph", &text);
+    let o = segloc(&["graph", "optimize", &input, "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert_eq!(err.matches("warning").count(), 1, "{err}");
+    assert!(err.contains("FOO") && err.contains("BAR"), "{err}");
+}
+
+#[test]
+fn bad_input_exits_with_code_2_and_names_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = "VERTEX3 0 0 0 0 0 0 0\nVERTEX3 1 1 0 0 0 0 0\n";
+    let cases = [
+        (
+            "malformed",
+            format!("{good}EDGE3 0 1 1 0 0 0 0\n"),
+            "missing EDGE3 value",
+        ),
+        (
+            "not_a_number",
+            format!("{good}EDGE3 0 1 1 zero 0 0 0 0 {INFO}\n"),
+            "not a number",
+        ),
+        (
+            "nan",
+            format!("{good}EDGE3 0 1 1 NaN 0 0 0 0 {INFO}\n"),
+            "NaN",
+        ),
+        (
+            "not_pd",
+            format!("{good}EDGE3 0 1 1 0 0 0 0 0 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 -1 0 0 1 0 1\n"),
+            "positive definite",
+        ),
+        (
+            "missing_vertex",
+            format!("{good}EDGE3 0 7 1 0 0 0 0 0 {INFO}\n"),
+            "missing vertex 7",
+        ),
+        (
+            "g2o_zero_quaternion",
+            "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 0\n".to_string(),
+            "quaternion",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        let input = write(dir.path(), &format!("{name}.graph"), &text);
+        let o = segloc(&["graph", "optimize", &input]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains(needle), "{name}: {err}");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+        if name != "g2o_zero_quaternion" {
+            assert!(err.contains(&format!("{name}.graph:3:")), "{name}: {err}");
+        }
+    }
+}
+
+#[test]
+fn missing_files_and_bad_options_exit_with_code_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "square.graph", &square_toro());
+    let missing = dir.path().join("nope.g2o").to_string_lossy().into_owned();
+    for args in [
+        vec!["graph", "optimize", missing.as_str()],
+        vec!["graph", "optimize", input.as_str(), "--robust", "sometimes"],
+        vec![
+            "graph",
+            "optimize",
+            input.as_str(),
+            "--robust",
+            "cauchy",
+            "--robust-scale",
+            "-1",
+        ],
+        vec!["graph", "optimize"],
+        vec![
+            "graph",
+            "corrupt",
+            input.as_str(),
+            "-o",
+            "x.graph",
+            "--fraction",
+            "2",
+        ],
+    ] {
+        let o = segloc(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"), "{args:?}");
+    }
+}
+
+#[test]
+fn robust_kernels_run_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "square.graph", &square_toro());
+    for kernel in ["none", "huber", "cauchy", "gnc"] {
+        let o = segloc(&["graph", "optimize", &input, "--robust", kernel, "--json"]);
+        assert_eq!(o.status.code(), Some(0), "{kernel}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["robust"], kernel);
+        assert_eq!(v["converged"], true, "{kernel}: {v}");
+    }
+}
+
+#[test]
+fn corrupt_and_ate_subcommands_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "square.graph", &square_toro());
+    let out = dir.path().join("bad.graph").to_string_lossy().into_owned();
+    let o = segloc(&["graph", "corrupt", &input, "-o", &out, "--fraction", "1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("replaced 1 of 4"), "{}", stderr(&o));
+    let o = segloc(&["graph", "ate", &input, &input, "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["matched"], 4);
+    assert!(v["position_rmse_m"].as_f64().unwrap() < 1e-12);
+}
