@@ -262,12 +262,19 @@ fn invalid_input_is_an_error() {
 
 #[test]
 fn auto_strategy_choice() {
-    let all = problem(71, Mode::All, 0.05, false, 16);
-    let inv = distance(0.3, 0.1);
+    // all-to-all with a selective invariant: the join's work follows the few edges
+    let all = problem(100, Mode::All, 0.02, true, 16);
     assert_eq!(
-        choose_strategy(&all.prior, &all.query, &all.associations, &inv).unwrap(),
+        choose_strategy(
+            &all.prior,
+            &all.query,
+            &all.associations,
+            &gravity(0.1, 0.04)
+        )
+        .unwrap(),
         BuildStrategy::Join
     );
+    // sparse random list: the scan
     let sparse = problem(
         500,
         Mode::Random {
@@ -278,6 +285,7 @@ fn auto_strategy_choice() {
         false,
         17,
     );
+    let inv = distance(0.3, 0.1);
     assert_eq!(
         choose_strategy(&sparse.prior, &sparse.query, &sparse.associations, &inv).unwrap(),
         BuildStrategy::PairwiseScan
