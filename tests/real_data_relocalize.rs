@@ -21,39 +21,35 @@ fn run(dof: Dof, trials: usize) -> segloc::eval::lunarloc::EvalReport {
     evaluate(&data, &options, &config, |_, _| {}).expect("evaluation runs")
 }
 
+/// Every trial of every pair correct, none falsely accepted; returns the totals.
+fn assert_all_correct(
+    report: &segloc::eval::lunarloc::EvalReport,
+) -> &segloc::eval::lunarloc::Totals {
+    for p in &report.pairs {
+        let failure = p.trials.iter().find(|t| !t.correct);
+        assert!(
+            failure.is_none(),
+            "pair ({}, {}) failed: {failure:?}",
+            p.prior,
+            p.query
+        );
+    }
+    assert_eq!(report.totals.false_accepts, 0);
+    &report.totals
+}
+
 #[test]
 fn paper_pairs_4dof_all_succeed_within_a_centimetre() {
     if common::data_dir().is_none() {
         return;
     }
     let report = run(Dof::Four, 20);
-    let t = &report.totals;
-    for p in &report.pairs {
-        assert_eq!(
-            p.successes,
-            p.trials.len(),
-            "pair ({}, {}) failed: {:?}",
-            p.prior,
-            p.query,
-            p.trials.iter().find(|t| !t.correct)
-        );
-    }
-    assert_eq!(t.false_accepts, 0);
-    assert!(
-        t.translation_error_m.mean <= 0.005,
-        "mean translation error {} m",
-        t.translation_error_m.mean
-    );
-    assert!(
-        t.translation_error_m.max <= 0.010,
-        "max translation error {} m",
-        t.translation_error_m.max
-    );
-    assert!(
-        t.rotation_error_deg.max <= 0.1,
-        "max rotation error {} deg",
-        t.rotation_error_deg.max
-    );
+    let t = assert_all_correct(&report);
+    let (mean, max) = (t.translation_error_m.mean, t.translation_error_m.max);
+    assert!(mean <= 0.005, "mean translation error {mean} m");
+    assert!(max <= 0.010, "max translation error {max} m");
+    let rot = t.rotation_error_deg.max;
+    assert!(rot <= 0.1, "max rotation error {rot} deg");
 }
 
 #[test]
@@ -62,23 +58,8 @@ fn paper_pairs_6dof_all_succeed_within_two_centimetres() {
         return;
     }
     let report = run(Dof::Six, 5);
-    let t = &report.totals;
-    for p in &report.pairs {
-        assert_eq!(
-            p.successes,
-            p.trials.len(),
-            "pair ({}, {}) failed: {:?}",
-            p.prior,
-            p.query,
-            p.trials.iter().find(|t| !t.correct)
-        );
-    }
-    assert_eq!(t.false_accepts, 0);
-    assert!(
-        t.translation_error_m.max <= 0.02,
-        "max translation error {} m",
-        t.translation_error_m.max
-    );
+    let max = assert_all_correct(&report).translation_error_m.max;
+    assert!(max <= 0.02, "max translation error {max} m");
 }
 
 /// Two real traverses cropped to disjoint halves of the site share no boulder: every

@@ -54,18 +54,24 @@ pub fn generate_hypotheses(
         return set;
     }
     let mut keep = vec![true; associations.len()];
-    let started = Instant::now();
-    let clique: Vec<usize> = first.iter().map(|&v| v as usize).collect();
-    set.hypotheses.extend(examine(
-        &clique,
-        associations,
-        prior,
-        query,
-        dof,
-        config,
+    let examine_clique = |clique: Vec<usize>, keep: &mut [bool], set: &mut HypothesisSet| {
+        let started = Instant::now();
+        set.hypotheses.extend(examine(
+            &clique,
+            associations,
+            prior,
+            query,
+            dof,
+            config,
+            keep,
+        ));
+        set.alignment_ms += ms_since(started);
+    };
+    examine_clique(
+        first.iter().map(|&v| v as usize).collect(),
         &mut keep,
-    ));
-    set.alignment_ms += ms_since(started);
+        &mut set,
+    );
     if config.clique.hypotheses <= 1 {
         return set;
     }
@@ -90,26 +96,16 @@ pub fn generate_hypotheses(
     };
     let rivals = super::seeded::edge_seeded_cliques(&rest, &search, config.clique.hypotheses - 1);
     set.clique_ms += ms_since(started);
-    let started = Instant::now();
-    for rival in rivals {
-        if rival.len() < config.clique.min_clique {
-            continue;
-        }
-        let clique: Vec<usize> = rival
+    for rival in rivals
+        .into_iter()
+        .filter(|r| r.len() >= config.clique.min_clique)
+    {
+        let clique = rival
             .iter()
             .map(|&v| to_original[v as usize] as usize)
             .collect();
-        set.hypotheses.extend(examine(
-            &clique,
-            associations,
-            prior,
-            query,
-            dof,
-            config,
-            &mut keep,
-        ));
+        examine_clique(clique, &mut keep, &mut set);
     }
-    set.alignment_ms += ms_since(started);
     set
 }
 
