@@ -4,6 +4,8 @@
 //! affinity with unit diagonal, `C` its binary pattern with unit diagonal and `d` a penalty on
 //! non-adjacent pairs that the outer loop raises until the support of `u` is a clique.
 
+use rayon::prelude::*;
+
 use crate::rng::SplitMix64;
 use crate::{ConsistencyGraph, DensestCliqueConfig};
 
@@ -24,23 +26,39 @@ struct Products {
     du: Vec<f64>,
 }
 
+/// Rows per parallel task of [`products`]; each row is summed sequentially, so the result
+/// does not depend on the number of threads.
+const ROWS_PER_TASK: usize = 2048;
+
 fn products(graph: &ConsistencyGraph, u: &[f64], out: &mut Products) {
     let total: f64 = u.iter().sum();
     let offsets = graph.offsets();
     let nbrs = graph.all_neighbors();
     let wts = graph.all_weights();
-    for (i, (mu, du)) in out.mu.iter_mut().zip(out.du.iter_mut()).enumerate() {
-        let (a, b) = (offsets[i], offsets[i + 1]);
-        let mut wsum = 0.0f64;
-        let mut csum = 0.0f64;
-        for (&j, &w) in nbrs[a..b].iter().zip(&wts[a..b]) {
-            let uj = u[j as usize];
-            wsum += w as f64 * uj;
-            csum += uj;
+    let rows = |first: usize, mu: &mut [f64], du: &mut [f64]| {
+        for (k, (mu, du)) in mu.iter_mut().zip(du.iter_mut()).enumerate() {
+            let i = first + k;
+            let (a, b) = (offsets[i], offsets[i + 1]);
+            let mut wsum = 0.0f64;
+            let mut csum = 0.0f64;
+            for (&j, &w) in nbrs[a..b].iter().zip(&wts[a..b]) {
+                let uj = u[j as usize];
+                wsum += w as f64 * uj;
+                csum += uj;
+            }
+            *mu = u[i] + wsum;
+            // clamp: rounding could leave a tiny negative value
+            *du = (total - u[i] - csum).max(0.0);
         }
-        *mu = u[i] + wsum;
-        // clamp: rounding could leave a tiny negative value
-        *du = (total - u[i] - csum).max(0.0);
+    };
+    if u.len() <= ROWS_PER_TASK {
+        rows(0, &mut out.mu, &mut out.du);
+    } else {
+        out.mu
+            .par_chunks_mut(ROWS_PER_TASK)
+            .zip(out.du.par_chunks_mut(ROWS_PER_TASK))
+            .enumerate()
+            .for_each(|(t, (mu, du))| rows(t * ROWS_PER_TASK, mu, du));
     }
 }
 

@@ -301,3 +301,21 @@ fn odd_settings_still_return_a_clique() {
         assert!(s.vertices.len() <= planted.len().max(s.upper_bound));
     }
 }
+
+#[test]
+fn relaxation_is_thread_count_independent() {
+    let (g, _) = planted(5000, 0.004, 12, 21);
+    let cfg = DensestCliqueConfig {
+        prune_by_core: false,
+        max_outer_iterations: 3,
+        ..Default::default()
+    };
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| densest_clique(&g, &cfg))
+    };
+    assert_eq!(run(1), run(3));
+}
