@@ -391,6 +391,41 @@ impl ConsistencyGraph {
         )
     }
 
+    /// Subgraph induced by the sorted, distinct `vertices` (new index = position in the
+    /// list), in time linear in their degrees. `index` is scratch of length
+    /// `num_vertices()` holding `u32::MAX` everywhere; it is left that way.
+    pub(crate) fn subgraph_on(&self, vertices: &[u32], index: &mut [u32]) -> ConsistencyGraph {
+        for (k, &v) in vertices.iter().enumerate() {
+            index[v as usize] = k as u32;
+        }
+        let mut offsets = Vec::with_capacity(vertices.len() + 1);
+        offsets.push(0);
+        let mut neighbors = Vec::new();
+        let mut weights = Vec::new();
+        for &v in vertices {
+            for (&u, &w) in self
+                .neighbors(v as usize)
+                .iter()
+                .zip(self.weights(v as usize))
+            {
+                let nu = index[u as usize];
+                if nu != u32::MAX {
+                    neighbors.push(nu);
+                    weights.push(w);
+                }
+            }
+            offsets.push(neighbors.len());
+        }
+        for &v in vertices {
+            index[v as usize] = u32::MAX;
+        }
+        ConsistencyGraph {
+            offsets,
+            neighbors,
+            weights,
+        }
+    }
+
     /// True if every pair of `vertices` is adjacent (and no vertex repeats). O(V + Σ degree).
     pub fn is_clique(&self, vertices: &[u32]) -> bool {
         let n = self.num_vertices();

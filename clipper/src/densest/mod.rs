@@ -143,7 +143,7 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
         s.certified_maximum = s.vertices.len() == ub_core;
         s.outer_iterations = out.outer_iterations;
         s.inner_iterations = out.inner_iterations;
-        return s;
+        return polish(graph, s, config);
     }
 
     let front = greedy_front(graph, config.max_greedy_starts);
@@ -175,6 +175,7 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
     let sub_cd = core_decomposition(&sub);
 
     let (mut outer, mut inner) = (0, 0);
+    let mut scratch = vec![u32::MAX; sub.num_vertices()];
     for (index, comp) in components(&sub).into_iter().enumerate() {
         let comp_max_core = comp
             .iter()
@@ -184,11 +185,8 @@ pub fn densest_clique(graph: &ConsistencyGraph, config: &DensestCliqueConfig) ->
         if comp.len() < lb || comp_max_core + 1 < lb {
             continue;
         }
-        let mut keep_c = vec![false; sub.num_vertices()];
-        for &v in &comp {
-            keep_c[v as usize] = true;
-        }
-        let (cg, c_to_sub) = sub.induced_subgraph(&keep_c);
+        let cg = sub.subgraph_on(&comp, &mut scratch);
+        let c_to_sub = &comp;
         let seed = config.seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         let out = relax(&cg, config, seed);
         outer += out.outer_iterations;

@@ -319,3 +319,28 @@ fn relaxation_is_thread_count_independent() {
     };
     assert_eq!(run(1), run(3));
 }
+
+#[test]
+fn many_small_components() {
+    // 3000 disjoint 5-cycles (clique number 2, colouring bound 3) and one triangle
+    let mut e = Vec::new();
+    for c in 0..3000u32 {
+        for k in 0..5 {
+            e.push((5 * c + k, 5 * c + (k + 1) % 5, 1.0));
+        }
+    }
+    e.extend([
+        (15000, 15001, 1.0),
+        (15001, 15002, 1.0),
+        (15000, 15002, 1.0),
+    ]);
+    let g = ConsistencyGraph::from_edges(15003, &e).unwrap();
+    let s = densest_clique(&g, &DensestCliqueConfig::default());
+    assert_eq!(s.vertices, vec![15000, 15001, 15002]);
+    assert!(s.certified_maximum);
+    // and with the triangle absent: a clique of two, not certified by the bounds
+    let g = ConsistencyGraph::from_edges(15000, &e[..15000]).unwrap();
+    let s = densest_clique(&g, &DensestCliqueConfig::default());
+    assert_eq!(s.vertices.len(), 2);
+    assert!(g.is_clique(&s.vertices));
+}
