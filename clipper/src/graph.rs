@@ -346,7 +346,7 @@ impl ConsistencyGraph {
         }
     }
 
-    /// Subgraph induced by `keep` (keep[v] == true); returns it and the map new index -> old index.
+    /// Subgraph induced by `keep` (`keep[v] == true`); returns it and the map new index -> old index.
     ///
     /// Vertices keep their relative order. Entries of `keep` past `num_vertices()` are
     /// ignored; missing entries count as `false`.
