@@ -7,6 +7,7 @@
 //! - [`relocalize`]: associations → consistency graph → cliques → alignment ([`align`]) →
 //!   verification → `prior_from_query` or a refusal;
 //! - [`graph`]: the SE(3) pose graph that relocalizations anchor;
+//! - [`merge`]: several agents' maps merged into one frame;
 //! - [`eval`]: evaluation on the real LunarLoc traverses;
 //! - [`sim`]: generated boulder fields for tests and the demo.
 #![warn(missing_docs)]
@@ -16,6 +17,7 @@ pub mod eval;
 pub mod graph;
 pub mod io;
 pub mod landmarks;
+pub mod merge;
 pub mod relocalize;
 pub mod sim;
 pub mod spatial;

@@ -9,6 +9,7 @@ use segloc::eval::landmark_quality::{match_map, match_rocks};
 use segloc::eval::lunarloc::{
     all_pairs, evaluate, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
 };
+use segloc::eval::merge::{evaluate_merge, MergeEvalOptions};
 use segloc::eval::traverse_path;
 use segloc::landmarks::fuse_detections;
 use segloc::relocalize::RelocalizeConfig;
@@ -36,6 +37,29 @@ pub enum EvalCommand {
         /// Motion model.
         #[arg(long, default_value = "4", value_parser = ["4", "6"])]
         dof: String,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Merge random subsets of LunarLoc traverses, each moved by its own random transform,
+    /// and compare every placement with the truth.
+    Merge {
+        /// The data folder holding `lunarloc/traverse_N.csv`.
+        #[arg(long, default_value = "../shared/data")]
+        data: PathBuf,
+        /// Agents (traverses) per trial.
+        #[arg(long, default_value_t = 5)]
+        agents: usize,
+        /// Decoy agents per trial: traverses mirrored in x, which share no boulder with any
+        /// other map and must be reported disconnected.
+        #[arg(long, default_value_t = 1)]
+        decoys: usize,
+        /// Trials.
+        #[arg(long, default_value_t = 10)]
+        trials: usize,
+        /// Seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
         /// Print one JSON object.
         #[arg(long)]
         json: bool,
@@ -91,6 +115,39 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
                 print_json(&report)?;
             } else {
                 print_table(&report);
+            }
+            Ok(0)
+        }
+        EvalCommand::Merge { data, agents, decoys, trials, seed, json } => {
+            if *agents < 2 || *trials == 0 {
+                bail!("--agents must be at least 2 and --trials at least 1");
+            }
+            let options = MergeEvalOptions { agents: *agents, decoys: *decoys, trials: *trials, seed: *seed };
+            let report = evaluate_merge(data, &options, config, |_, _| {})?;
+            if *json {
+                let mut value = serde_json::to_value(&report)?;
+                value["config"] = json!(config);
+                print_json(&value)?;
+            } else {
+                for (k, t) in report.trials.iter().enumerate() {
+                    let line: Vec<String> = t
+                        .agents
+                        .iter()
+                        .map(|a| match (a.decoy, a.merged, a.translation_error_m) {
+                            (true, false, _) => format!("decoy {}: disconnected", a.traverse),
+                            (true, true, _) => format!("decoy {}: PLACED", a.traverse),
+                            (false, true, Some(e)) => format!("{}: {:.2} cm", a.traverse, e * 100.0),
+                            _ => format!("{}: disconnected", a.traverse),
+                        })
+                        .collect();
+                    println!("trial {k:>2} ({:.0} ms): {}", t.time_ms, line.join(", "));
+                }
+                println!(
+                    "placed {}/{} real agents ({} outside 1 cm / 0.1°); decoys placed {}/{}; translation error mean {:.2} cm, max {:.2} cm; rotation max {:.3}°; merge time median {:.0} ms",
+                    report.placed, report.agents, report.placed_outside_1cm_0p1deg, report.decoys_placed, report.decoys,
+                    report.translation_error_m.mean * 100.0, report.translation_error_m.max * 100.0,
+                    report.rotation_error_deg.max, report.time_ms.median
+                );
             }
             Ok(0)
         }

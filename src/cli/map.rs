@@ -4,6 +4,7 @@ use super::print_json;
 use anyhow::{Context, Result};
 use clap::Subcommand;
 use segloc::io::load_map;
+use segloc::merge::{merge_maps, MapStatus, MergeConfig};
 use segloc::relocalize::RelocalizeConfig;
 use segloc_maps::{read_map, write_map};
 use serde_json::json;
@@ -23,6 +24,25 @@ pub enum MapCommand {
         #[arg(long)]
         session: Option<String>,
         /// Print a JSON summary.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Merge maps of several agents / sessions (map files, detection or traverse CSVs)
+    /// into the frame of one of them.
+    Merge {
+        /// The input maps.
+        #[arg(required = true, num_args = 2..)]
+        inputs: Vec<PathBuf>,
+        /// The merged map file to write (atomically).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Index (0-based, in the order given) of the map whose frame is the reference.
+        #[arg(long, default_value_t = 0)]
+        reference: usize,
+        /// Write every map that could not be joined to the reference here, on its own.
+        #[arg(long, value_name = "DIR")]
+        disconnected_dir: Option<PathBuf>,
+        /// Print one JSON object.
         #[arg(long)]
         json: bool,
     },
@@ -66,6 +86,9 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             }
             Ok(0)
         }
+        MapCommand::Merge { inputs, output, reference, disconnected_dir, json } => {
+            merge(inputs, output, *reference, disconnected_dir.as_deref(), *json, config)
+        }
         MapCommand::Info { map, json } => {
             let m = read_map(map)?;
             let observations: u32 = m.landmarks.iter().map(|l| l.observations).sum();
@@ -94,6 +117,73 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             Ok(0)
         }
     }
+}
+
+fn merge(
+    inputs: &[PathBuf],
+    output: &std::path::Path,
+    reference: usize,
+    disconnected_dir: Option<&std::path::Path>,
+    json: bool,
+    config: &RelocalizeConfig,
+) -> Result<i32> {
+    // Load everything first: a bad input stops the merge before anything is written.
+    let mut maps = Vec::with_capacity(inputs.len());
+    for path in inputs {
+        let (mut map, _) = load_map(path, &config.landmarks)?;
+        if map.session.is_empty() {
+            map.session = path.display().to_string();
+        }
+        maps.push(map);
+    }
+    let report = merge_maps(&maps, reference, config, &MergeConfig::default())?;
+    write_map(&report.merged, output).with_context(|| "writing the merged map")?;
+    if let Some(dir) = disconnected_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for placement in report.maps.iter().filter(|m| m.status == MapStatus::Disconnected) {
+            let name = inputs[placement.index]
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| format!("map_{}", placement.index));
+            write_map(&maps[placement.index], &dir.join(format!("{name}.disconnected.json")))?;
+        }
+    }
+    if json {
+        let mut value = serde_json::to_value(&report)?;
+        for (entry, path) in value["maps"].as_array_mut().into_iter().flatten().zip(inputs) {
+            entry["input"] = json!(path);
+        }
+        value["output"] = json!(output);
+        value["config"] = json!(config);
+        print_json(&value)?;
+    } else {
+        println!("merged {} maps into the frame of {}:", inputs.len(), inputs[reference].display());
+        for m in &report.maps {
+            let status = match m.status {
+                MapStatus::Merged => "merged",
+                MapStatus::Disconnected => "DISCONNECTED",
+            };
+            println!(
+                "  [{}] {:<40} {:>5} landmarks, {:>2} accepted pairs: {status}",
+                m.index,
+                inputs[m.index].display().to_string(),
+                m.landmarks,
+                m.accepted_pairs
+            );
+        }
+        let accepted = report.pairs.iter().filter(|p| p.accepted).count();
+        let outvoted = report.pairs.iter().filter(|p| p.outvoted).count();
+        println!(
+            "  {} pairs: {accepted} accepted, {outvoted} out-voted; {} landmarks ({} fused); frame residual {:.2} cm; {:.0} ms",
+            report.pairs.len(),
+            report.landmarks,
+            report.fused,
+            report.frame_residual_rmse_m * 100.0,
+            report.time_ms
+        );
+        println!("  wrote {}", output.display());
+    }
+    Ok(0)
 }
 
 fn bounds(m: &segloc_maps::ObjectMap) -> ([f64; 3], [f64; 3]) {

@@ -2,11 +2,13 @@
 //!
 //! - [`lunarloc`]: relocalize pairs of traverses under random rigid transforms and compare
 //!   with the truth (all traverses share one world frame);
+//! - [`merge`]: map merging with traverses as agents;
 //! - [`landmark_quality`]: how well fused landmarks land on the ground-truth rock cells;
 //! - [`transform_error`]: the error measures.
 
 pub mod landmark_quality;
 pub mod lunarloc;
+pub mod merge;
 
 use nalgebra::Isometry3;
 

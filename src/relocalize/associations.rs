@@ -2,7 +2,9 @@
 //!
 //! Boulders carry no appearance descriptor, so every prior landmark may be every query
 //! landmark (all-to-all); when both sizes are known, pairs of very different size are
-//! left out. The consistency graph does the real work.
+//! left out. A large map contributes only its most observed landmarks (the consistency
+//! graph grows with the square of the candidates; refinement and verification still use
+//! every landmark). The consistency graph does the real work.
 
 use super::config::AssociationConfig;
 use super::prepared::PreparedMap;
@@ -14,10 +16,12 @@ pub fn candidate_associations(
     query: &PreparedMap,
     config: &AssociationConfig,
 ) -> Vec<Association> {
-    let mut out = Vec::with_capacity(prior.len() * query.len());
-    for (i, size_prior) in prior.sizes.iter().enumerate() {
-        for (j, size_query) in query.sizes.iter().enumerate() {
-            if let (Some(a), Some(b)) = (size_prior, size_query) {
+    let prior_candidates = prior.best_observed(config.max_landmarks);
+    let query_candidates = query.best_observed(config.max_landmarks);
+    let mut out = Vec::with_capacity(prior_candidates.len() * query_candidates.len());
+    for &i in &prior_candidates {
+        for &j in &query_candidates {
+            if let (Some(a), Some(b)) = (&prior.sizes[i], &query.sizes[j]) {
                 let (small, large) = if a < b { (*a, *b) } else { (*b, *a) };
                 if small > 0.0 && large > config.max_size_ratio * small {
                     continue;

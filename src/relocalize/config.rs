@@ -35,12 +35,16 @@ pub struct AssociationConfig {
     /// When both landmarks have a size, associate them only if the larger is at most this
     /// many times the smaller. Sizes unknown: every pair is a candidate (all-to-all).
     pub max_size_ratio: f64,
+    /// A map with more landmarks than this offers only its this-many most observed ones
+    /// as association candidates (refinement and verification still use all of them).
+    pub max_landmarks: usize,
 }
 
 impl Default for AssociationConfig {
     fn default() -> Self {
         Self {
             max_size_ratio: 2.0,
+            max_landmarks: 250,
         }
     }
 }

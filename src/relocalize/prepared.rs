@@ -18,6 +18,8 @@ pub struct PreparedMap {
     pub ids: Vec<u32>,
     /// Landmark sizes (m), when known.
     pub sizes: Vec<Option<f64>>,
+    /// Detections fused into each landmark.
+    pub observations: Vec<u32>,
     /// Whether the map is gravity-aligned.
     pub gravity_aligned: bool,
 }
@@ -47,6 +49,7 @@ impl PreparedMap {
             weights,
             ids: map.landmarks.iter().map(|l| l.id).collect(),
             sizes: map.landmarks.iter().map(|l| l.size_m).collect(),
+            observations: map.landmarks.iter().map(|l| l.observations).collect(),
             gravity_aligned: map.gravity_aligned,
         })
     }
@@ -54,6 +57,18 @@ impl PreparedMap {
     /// Number of landmarks.
     pub fn len(&self) -> usize {
         self.points.len()
+    }
+
+    /// Indices of the `limit` most observed landmarks (all of them when there are fewer),
+    /// in index order.
+    pub fn best_observed(&self, limit: usize) -> Vec<usize> {
+        let mut order: Vec<usize> = (0..self.len()).collect();
+        if self.len() > limit {
+            order.sort_by_key(|&i| (std::cmp::Reverse(self.observations[i]), i));
+            order.truncate(limit);
+            order.sort_unstable();
+        }
+        order
     }
 
     /// Whether the map has no landmarks (never true once prepared).

@@ -181,7 +181,7 @@ fn serialize_isometry<S: serde::Serializer>(t: &Isometry3<f64>, s: S) -> Result<
     matrix_rows(t).serialize(s)
 }
 
-fn serialize_option_isometry<S: serde::Serializer>(
+pub(crate) fn serialize_option_isometry<S: serde::Serializer>(
     t: &Option<Isometry3<f64>>,
     s: S,
 ) -> Result<S::Ok, S::Error> {
