@@ -1,8 +1,8 @@
 //! `segloc graph …`: optimise pose-graph files, benchmark incremental updates, inject
 //! outliers and measure trajectory error.
 //!
-//! Exit codes: 0 success, 2 bad input or usage (malformed files, bad options), 1 other
-//! failures (e.g. the output cannot be written).
+//! Exit codes: 0 success, 2 bad input or usage (malformed files, bad options, an output
+//! path that cannot be written), 1 other failures.
 
 use crate::graph::file::{write_atomic, BuildOptions, FileFormat, GraphFile};
 use crate::graph::metrics::trajectory_error;
@@ -11,7 +11,6 @@ use crate::graph::{
     Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
     SolverConfig,
 };
-use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
 use nalgebra::Isometry3;
 use serde::Serialize;
@@ -171,20 +170,19 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
     match result {
         Ok(()) => Ok(0),
         Err(e) => {
-            // Bad input (files, options) is exit code 2; anything else propagates.
-            if let Some(g) = e.downcast_ref::<GraphError>() {
-                let bad_input = !matches!(g, GraphError::Io { .. } | GraphError::LinearAlgebra(_))
-                    || is_read_error(g);
-                if bad_input {
-                    eprintln!("error: {e:#}");
-                    return Ok(2);
-                }
-            }
-            if e.downcast_ref::<UsageError>().is_some() {
+            // Bad input (files, options, output paths) is exit code 2; a failure of the
+            // linear algebra or anything unforeseen propagates (exit code 1).
+            let bad_input = match e.downcast_ref::<GraphError>() {
+                Some(GraphError::LinearAlgebra(_)) => false,
+                Some(_) => true,
+                None => e.downcast_ref::<UsageError>().is_some(),
+            };
+            if bad_input {
                 eprintln!("error: {e:#}");
-                return Ok(2);
+                Ok(2)
+            } else {
+                Err(e)
             }
-            Err(e)
         }
     }
 }
@@ -193,11 +191,6 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 struct UsageError(String);
-
-fn is_read_error(e: &GraphError) -> bool {
-    matches!(e, GraphError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound
-        || source.kind() == std::io::ErrorKind::InvalidData)
-}
 
 fn read_file(path: &Path) -> anyhow::Result<GraphFile> {
     let file = GraphFile::read(path)?;
@@ -320,9 +313,7 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
         if fmt == FileFormat::Toro {
             written.fixed.clear();
         }
-        written
-            .write(out, fmt)
-            .with_context(|| format!("writing {}", out.display()))?;
+        written.write(out, fmt)?;
     }
     let robust = format!("{:?}", a.robust).to_lowercase();
     if a.json {

@@ -301,18 +301,17 @@ impl PoseGraph {
     /// Total cost `½ Σ ρ(rᵀ Ω r)` at the current estimate (GNC kernels as the truncated
     /// quadratic they end on).
     pub fn cost(&self) -> f64 {
-        self.factors.iter().map(|f| f.cost(&self.poses, 0.0)).sum()
+        self.factors
+            .iter()
+            .fold(0.0, |acc, f| acc + f.cost(&self.poses, 0.0))
     }
 
     /// Plain least-squares cost `½ Σ rᵀ Ω r`, ignoring robust kernels.
     pub fn quadratic_cost(&self) -> f64 {
-        self.factors
-            .iter()
-            .map(|f| {
-                let r = f.residual(&self.poses);
-                0.5 * f.mahalanobis2(&r)
-            })
-            .sum()
+        self.factors.iter().fold(0.0, |acc, f| {
+            let r = f.residual(&self.poses);
+            acc + 0.5 * f.mahalanobis2(&r)
+        })
     }
 
     /// Optimises the estimates in place and reports what happened.

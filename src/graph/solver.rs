@@ -437,7 +437,7 @@ fn linearize(
 }
 
 fn total_cost(factors: &[Factor], poses: &[Isometry3<f64>], mu: f64) -> f64 {
-    factors.iter().map(|f| f.cost(poses, mu)).sum()
+    factors.iter().fold(0.0, |acc, f| acc + f.cost(poses, mu))
 }
 
 /// Chord steps are only tried once the last step decreased the cost by less than this
