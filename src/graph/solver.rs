@@ -291,7 +291,7 @@ pub(crate) fn optimize(
 ) -> Result<OptimizationReport, GraphError> {
     config.validate()?;
     let start = Instant::now();
-    let shape = (graph.num_variables(), graph.num_factors());
+    let version = graph.structure_version;
     let mut state = RunState {
         start,
         log: Vec::new(),
@@ -300,7 +300,7 @@ pub(crate) fn optimize(
         profile: Profile::default(),
     };
     let cached = match graph.cache.take() {
-        Some(c) if c.shape == shape => Some(c),
+        Some(c) if c.version == version => Some(c),
         _ => None,
     };
     let analysis_reused = cached.is_some();
@@ -313,7 +313,7 @@ pub(crate) fn optimize(
             let system = NormalEquations::<6>::analyse(&held, &graph.factors)?;
             state.profile.analysis_ms = ms_since(t);
             StructureCache {
-                shape,
+                version,
                 components,
                 held,
                 system,
