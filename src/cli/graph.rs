@@ -12,7 +12,6 @@ use crate::graph::{
     SolverConfig,
 };
 use clap::{Args, Subcommand, ValueEnum};
-use nalgebra::Isometry3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -536,6 +535,5 @@ fn ate(a: &AteArgs) -> anyhow::Result<()> {
             err.matched, err.position_rmse_m, err.position_max_m, err.rotation_rmse_rad
         );
     }
-    let _ = Isometry3::<f64>::identity;
     Ok(())
 }
