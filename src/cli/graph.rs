@@ -1,12 +1,9 @@
 //! `segloc graph …`: optimise pose-graph files, benchmark incremental updates, inject
 //! outliers and measure trajectory error.
 //!
-//! Exit codes: 0 success, 2 bad input or usage (malformed files, bad options), 1 other
-//! failures (e.g. the output cannot be written).
+//! Exit codes: 0 success, 2 bad input or usage (malformed files, bad options, an output
+//! path that cannot be written), 1 other failures.
 
-use anyhow::Context;
-use clap::{Args, Subcommand, ValueEnum};
-use nalgebra::Isometry3;
 use segloc::graph::file::{write_atomic, BuildOptions, FileFormat, GraphFile};
 use segloc::graph::metrics::trajectory_error;
 use segloc::graph::synthetic::{self, SyntheticConfig};
@@ -14,6 +11,7 @@ use segloc::graph::{
     Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
     SolverConfig,
 };
+use clap::{Args, Subcommand, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -171,20 +169,19 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
     match result {
         Ok(()) => Ok(0),
         Err(e) => {
-            // Bad input (files, options) is exit code 2; anything else propagates.
-            if let Some(g) = e.downcast_ref::<GraphError>() {
-                let bad_input = !matches!(g, GraphError::Io { .. } | GraphError::LinearAlgebra(_))
-                    || is_read_error(g);
-                if bad_input {
-                    eprintln!("error: {e:#}");
-                    return Ok(2);
-                }
-            }
-            if e.downcast_ref::<UsageError>().is_some() {
+            // Bad input (files, options, output paths) is exit code 2; a failure of the
+            // linear algebra or anything unforeseen propagates (exit code 1).
+            let bad_input = match e.downcast_ref::<GraphError>() {
+                Some(GraphError::LinearAlgebra(_)) => false,
+                Some(_) => true,
+                None => e.downcast_ref::<UsageError>().is_some(),
+            };
+            if bad_input {
                 eprintln!("error: {e:#}");
-                return Ok(2);
+                Ok(2)
+            } else {
+                Err(e)
             }
-            Err(e)
         }
     }
 }
@@ -193,11 +190,6 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 struct UsageError(String);
-
-fn is_read_error(e: &GraphError) -> bool {
-    matches!(e, GraphError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound
-        || source.kind() == std::io::ErrorKind::InvalidData)
-}
 
 fn read_file(path: &Path) -> anyhow::Result<GraphFile> {
     let file = GraphFile::read(path)?;
@@ -242,6 +234,7 @@ struct OptimizeOutput<'a> {
     final_cost: f64,
     iterations: usize,
     factorizations: usize,
+    factor_nnz: usize,
     time_ms: f64,
     time_median_ms: f64,
     repeat: usize,
@@ -320,9 +313,7 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
         if fmt == FileFormat::Toro {
             written.fixed.clear();
         }
-        written
-            .write(out, fmt)
-            .with_context(|| format!("writing {}", out.display()))?;
+        written.write(out, fmt)?;
     }
     let robust = format!("{:?}", a.robust).to_lowercase();
     if a.json {
@@ -333,6 +324,7 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
             final_cost: report.final_cost,
             iterations: report.iterations,
             factorizations: report.factorizations,
+            factor_nnz: report.factor_nnz,
             time_ms: report.time_ms,
             time_median_ms,
             repeat: times.len(),
@@ -545,6 +537,5 @@ fn ate(a: &AteArgs) -> anyhow::Result<()> {
             err.matched, err.position_rmse_m, err.position_max_m, err.rotation_rmse_rad
         );
     }
-    let _ = Isometry3::<f64>::identity;
     Ok(())
 }

@@ -17,7 +17,7 @@ pub enum GraphError {
         message: String,
     },
     /// Reading or writing a file failed.
-    #[error("{}: {source}", path.display())]
+    #[error("cannot read or write {}", path.display())]
     Io {
         /// File being read or written.
         path: PathBuf,

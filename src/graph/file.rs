@@ -298,9 +298,22 @@ impl GraphFile {
                 }
             }
         }
+        let edge_ids: HashMap<u64, ()> = if vertices.is_empty() {
+            edges
+                .iter()
+                .flat_map(|e| [(e.from, ()), (e.to, ())])
+                .collect()
+        } else {
+            HashMap::new()
+        };
         let mut fixed = Vec::with_capacity(fix_lines.len());
         for &(id, line) in &fix_lines {
-            if !vertices.is_empty() && !seen.contains_key(&id) {
+            let known = if vertices.is_empty() {
+                edge_ids.contains_key(&id)
+            } else {
+                seen.contains_key(&id)
+            };
+            if !known {
                 return Err(err(line, format!("FIX names missing vertex {id}")));
             }
             fixed.push(id);

@@ -11,6 +11,18 @@
 //! * The cost is `½ Σ ρ(rᵀ Ω r)` with `r = Log(Zᵢⱼ⁻¹ · Xᵢ⁻¹ · Xⱼ)` for a between factor, so
 //!   costs compare number for number with GTSAM's `NonlinearFactorGraph::error`.
 //!
+//! # Pieces
+//!
+//! * [`PoseGraph`]: variables ([`VarKey`]), factors ([`Factor`]), `optimize`.
+//! * `solver`: Levenberg–Marquardt / Gauss–Newton ([`SolverConfig`], [`OptimizationReport`]),
+//!   chord steps near convergence, graduated non-convexity ([`RobustKernel::Gnc`]).
+//! * `structure` + `ordering`: the sparse normal equations, laid out once in AMD order with a
+//!   symbolic Cholesky that is reused until the graph's structure changes.
+//! * `initialize`: chordal initialisation ([`Initialization::Chordal`]).
+//! * [`IncrementalGraph`]: online use, skipping solves that cannot change the optimum.
+//! * [`file`](mod@file), [`g2o`], [`toro`]: g2o 3D and TORO 3D files; [`synthetic`] and [`metrics`]
+//!   for tests and benchmarks.
+//!
 //! # Example
 //!
 //! ```

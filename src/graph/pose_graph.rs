@@ -19,14 +19,18 @@ pub struct PoseGraph {
     pub(crate) poses: Vec<Isometry3<f64>>,
     fixed: Vec<bool>,
     pub(crate) factors: Vec<Factor>,
-    /// Structure analysed for the current variables, factors and fixed set.
+    /// Structure analysed for some version of the variables, factors and fixed set. A stale
+    /// one is kept until the next optimisation replaces it, so that growing the graph does
+    /// not pay for freeing it.
     pub(crate) cache: Option<StructureCache>,
+    /// Incremented by every change of variables, factors or fixed flags.
+    pub(crate) structure_version: u64,
 }
 
 /// A symbolic analysis kept between optimisations while the structure is unchanged.
 pub(crate) struct StructureCache {
-    /// Number of variables and factors the analysis was made for.
-    pub shape: (usize, usize),
+    /// The `structure_version` the analysis was made for.
+    pub version: u64,
     /// Connected components and their anchors.
     pub components: Vec<ComponentInfo>,
     /// Variables held constant (user-fixed and auto-fixed).
@@ -76,7 +80,7 @@ impl PoseGraph {
         self.keys.push(key);
         self.poses.push(initial);
         self.fixed.push(false);
-        self.cache = None;
+        self.structure_version += 1;
         Ok(())
     }
 
@@ -134,7 +138,7 @@ impl PoseGraph {
             kernel,
         )?;
         self.factors.push(f);
-        self.cache = None;
+        self.structure_version += 1;
         Ok(self.factors.len() - 1)
     }
 
@@ -188,7 +192,7 @@ impl PoseGraph {
         }
         let f = Factor::new(kind, [ia, ib], false, z, information, kernel)?;
         self.factors.push(f);
-        self.cache = None;
+        self.structure_version += 1;
         Ok(self.factors.len() - 1)
     }
 
@@ -226,7 +230,7 @@ impl PoseGraph {
         let i = self.var_index(key)?;
         if self.fixed[i] != fixed {
             self.fixed[i] = fixed;
-            self.cache = None;
+            self.structure_version += 1;
         }
         Ok(())
     }
@@ -301,18 +305,17 @@ impl PoseGraph {
     /// Total cost `½ Σ ρ(rᵀ Ω r)` at the current estimate (GNC kernels as the truncated
     /// quadratic they end on).
     pub fn cost(&self) -> f64 {
-        self.factors.iter().map(|f| f.cost(&self.poses, 0.0)).sum()
+        self.factors
+            .iter()
+            .fold(0.0, |acc, f| acc + f.cost(&self.poses, 0.0))
     }
 
     /// Plain least-squares cost `½ Σ rᵀ Ω r`, ignoring robust kernels.
     pub fn quadratic_cost(&self) -> f64 {
-        self.factors
-            .iter()
-            .map(|f| {
-                let r = f.residual(&self.poses);
-                0.5 * f.mahalanobis2(&r)
-            })
-            .sum()
+        self.factors.iter().fold(0.0, |acc, f| {
+            let r = f.residual(&self.poses);
+            acc + 0.5 * f.mahalanobis2(&r)
+        })
     }
 
     /// Optimises the estimates in place and reports what happened.

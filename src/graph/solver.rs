@@ -291,7 +291,7 @@ pub(crate) fn optimize(
 ) -> Result<OptimizationReport, GraphError> {
     config.validate()?;
     let start = Instant::now();
-    let shape = (graph.num_variables(), graph.num_factors());
+    let version = graph.structure_version;
     let mut state = RunState {
         start,
         log: Vec::new(),
@@ -300,7 +300,7 @@ pub(crate) fn optimize(
         profile: Profile::default(),
     };
     let cached = match graph.cache.take() {
-        Some(c) if c.shape == shape => Some(c),
+        Some(c) if c.version == version => Some(c),
         _ => None,
     };
     let analysis_reused = cached.is_some();
@@ -313,7 +313,7 @@ pub(crate) fn optimize(
             let system = NormalEquations::<6>::analyse(&held, &graph.factors)?;
             state.profile.analysis_ms = ms_since(t);
             StructureCache {
-                shape,
+                version,
                 components,
                 held,
                 system,
@@ -437,7 +437,7 @@ fn linearize(
 }
 
 fn total_cost(factors: &[Factor], poses: &[Isometry3<f64>], mu: f64) -> f64 {
-    factors.iter().map(|f| f.cost(poses, mu)).sum()
+    factors.iter().fold(0.0, |acc, f| acc + f.cost(poses, mu))
 }
 
 /// Chord steps are only tried once the last step decreased the cost by less than this
