@@ -44,7 +44,7 @@ impl Default for AssociationConfig {
     fn default() -> Self {
         Self {
             max_size_ratio: 2.0,
-            max_landmarks: 250,
+            max_landmarks: 120,
         }
     }
 }
