@@ -118,11 +118,23 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             }
             Ok(0)
         }
-        EvalCommand::Merge { data, agents, decoys, trials, seed, json } => {
+        EvalCommand::Merge {
+            data,
+            agents,
+            decoys,
+            trials,
+            seed,
+            json,
+        } => {
             if *agents < 2 || *trials == 0 {
                 bail!("--agents must be at least 2 and --trials at least 1");
             }
-            let options = MergeEvalOptions { agents: *agents, decoys: *decoys, trials: *trials, seed: *seed };
+            let options = MergeEvalOptions {
+                agents: *agents,
+                decoys: *decoys,
+                trials: *trials,
+                seed: *seed,
+            };
             let report = evaluate_merge(data, &options, config, |_, _| {})?;
             if *json {
                 let mut value = serde_json::to_value(&report)?;
@@ -136,7 +148,9 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
                         .map(|a| match (a.decoy, a.merged, a.translation_error_m) {
                             (true, false, _) => format!("decoy {}: disconnected", a.traverse),
                             (true, true, _) => format!("decoy {}: PLACED", a.traverse),
-                            (false, true, Some(e)) => format!("{}: {:.2} cm", a.traverse, e * 100.0),
+                            (false, true, Some(e)) => {
+                                format!("{}: {:.2} cm", a.traverse, e * 100.0)
+                            }
                             _ => format!("{}: disconnected", a.traverse),
                         })
                         .collect();

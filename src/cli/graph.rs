@@ -4,6 +4,7 @@
 //! Exit codes: 0 success, 2 bad input or usage (malformed files, bad options, an output
 //! path that cannot be written), 1 other failures.
 
+use clap::{Args, Subcommand, ValueEnum};
 use segloc::graph::file::{write_atomic, BuildOptions, FileFormat, GraphFile};
 use segloc::graph::metrics::trajectory_error;
 use segloc::graph::synthetic::{self, SyntheticConfig};
@@ -11,7 +12,6 @@ use segloc::graph::{
     Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
     SolverConfig,
 };
-use clap::{Args, Subcommand, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -86,9 +86,20 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             }
             Ok(0)
         }
-        MapCommand::Merge { inputs, output, reference, disconnected_dir, json } => {
-            merge(inputs, output, *reference, disconnected_dir.as_deref(), *json, config)
-        }
+        MapCommand::Merge {
+            inputs,
+            output,
+            reference,
+            disconnected_dir,
+            json,
+        } => merge(
+            inputs,
+            output,
+            *reference,
+            disconnected_dir.as_deref(),
+            *json,
+            config,
+        ),
         MapCommand::Info { map, json } => {
             let m = read_map(map)?;
             let observations: u32 = m.landmarks.iter().map(|l| l.observations).sum();
@@ -140,24 +151,40 @@ fn merge(
     write_map(&report.merged, output).with_context(|| "writing the merged map")?;
     if let Some(dir) = disconnected_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        for placement in report.maps.iter().filter(|m| m.status == MapStatus::Disconnected) {
+        for placement in report
+            .maps
+            .iter()
+            .filter(|m| m.status == MapStatus::Disconnected)
+        {
             let name = inputs[placement.index]
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| format!("map_{}", placement.index));
-            write_map(&maps[placement.index], &dir.join(format!("{name}.disconnected.json")))?;
+            write_map(
+                &maps[placement.index],
+                &dir.join(format!("{name}.disconnected.json")),
+            )?;
         }
     }
     if json {
         let mut value = serde_json::to_value(&report)?;
-        for (entry, path) in value["maps"].as_array_mut().into_iter().flatten().zip(inputs) {
+        for (entry, path) in value["maps"]
+            .as_array_mut()
+            .into_iter()
+            .flatten()
+            .zip(inputs)
+        {
             entry["input"] = json!(path);
         }
         value["output"] = json!(output);
         value["config"] = json!(config);
         print_json(&value)?;
     } else {
-        println!("merged {} maps into the frame of {}:", inputs.len(), inputs[reference].display());
+        println!(
+            "merged {} maps into the frame of {}:",
+            inputs.len(),
+            inputs[reference].display()
+        );
         for m in &report.maps {
             let status = match m.status {
                 MapStatus::Merged => "merged",

@@ -104,7 +104,11 @@ pub fn evaluate_merge(
         let chosen: Vec<(usize, bool)> = numbers[..options.agents.min(TRAVERSES)]
             .iter()
             .map(|&n| (n, false))
-            .chain(numbers[..options.decoys.min(TRAVERSES)].iter().map(|&n| (n, true)))
+            .chain(
+                numbers[..options.decoys.min(TRAVERSES)]
+                    .iter()
+                    .map(|&n| (n, true)),
+            )
             .collect();
         let mut maps = Vec::new();
         let mut world_from_map = Vec::new();
@@ -119,8 +123,12 @@ pub fn evaluate_merge(
             maps.push(fuse_detections(&moved, &config.landmarks));
             world_from_map.push(truth);
         }
-        let report = merge_maps(&maps, 0, config, &MergeConfig::default())
-            .map_err(|e| MapError::InvalidData { what: "merge", message: e.to_string() })?;
+        let report = merge_maps(&maps, 0, config, &MergeConfig::default()).map_err(|e| {
+            MapError::InvalidData {
+                what: "merge",
+                message: e.to_string(),
+            }
+        })?;
         let agents = chosen
             .iter()
             .zip(&report.maps)
@@ -173,7 +181,10 @@ fn summarise(trials: Vec<MergeTrial>) -> MergeEvalReport {
         .flat_map(|t| t.agents.iter())
         .filter(|a| a.decoy)
         .collect();
-    let t_err: Vec<f64> = placed.iter().filter_map(|a| a.translation_error_m).collect();
+    let t_err: Vec<f64> = placed
+        .iter()
+        .filter_map(|a| a.translation_error_m)
+        .collect();
     let r_err: Vec<f64> = placed.iter().filter_map(|a| a.rotation_error_deg).collect();
     MergeEvalReport {
         placed: placed.len(),
@@ -210,10 +221,17 @@ pub fn merge_all(
         if n == 1 {
             reference_truth = truth;
         }
-        maps.push(fuse_detections(&set.transformed(&truth.inverse(), "agent"), &config.landmarks));
+        maps.push(fuse_detections(
+            &set.transformed(&truth.inverse(), "agent"),
+            &config.landmarks,
+        ));
     }
-    let report = merge_maps(&maps, 0, config, &MergeConfig::default())
-        .map_err(|e| MapError::InvalidData { what: "merge", message: e.to_string() })?;
+    let report = merge_maps(&maps, 0, config, &MergeConfig::default()).map_err(|e| {
+        MapError::InvalidData {
+            what: "merge",
+            message: e.to_string(),
+        }
+    })?;
     let in_world = report.merged.transformed(&reference_truth, "world");
     Ok((report, in_world))
 }

@@ -38,7 +38,9 @@ pub fn solve_frames(
         }
         graph.fix(VarKey::Frame(reference as u64))?;
         for p in pairs.iter().filter(|p| p.accepted) {
-            if let (Some(z), true, true) = (p.a_from_b, placed[p.a].is_some(), placed[p.b].is_some()) {
+            if let (Some(z), true, true) =
+                (p.a_from_b, placed[p.a].is_some(), placed[p.b].is_some())
+            {
                 graph.add_between_keys(
                     VarKey::Frame(p.a as u64),
                     VarKey::Frame(p.b as u64),

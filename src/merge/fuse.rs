@@ -28,12 +28,20 @@ pub fn fuse_maps(
     config: &MergeConfig,
 ) -> Fused {
     let base = &maps[reference];
-    let mut merged = ObjectMap::new(base.frame.clone(), base.session.clone(), base.gravity_aligned);
-    merged.notes.insert("source".into(), "segloc map merge".into());
+    let mut merged = ObjectMap::new(
+        base.frame.clone(),
+        base.session.clone(),
+        base.gravity_aligned,
+    );
+    merged
+        .notes
+        .insert("source".into(), "segloc map merge".into());
     let mut order: Vec<usize> = vec![reference];
     order.extend((0..maps.len()).filter(|&k| k != reference));
     for k in order {
-        let Some(transform) = reference_from_map[k] else { continue };
+        let Some(transform) = reference_from_map[k] else {
+            continue;
+        };
         let moved = maps[k].transformed(&transform, &merged.frame);
         let merged_points = merged.positions();
         let index = GridIndex::from_points(&merged_points, config.fuse_gate_m);
@@ -47,7 +55,11 @@ pub fn fuse_maps(
         );
         let mut matched = vec![false; moved.len()];
         for (i, j) in matches {
-            fuse_into(&mut merged.landmarks[i as usize], &moved.landmarks[j as usize], &moved.session);
+            fuse_into(
+                &mut merged.landmarks[i as usize],
+                &moved.landmarks[j as usize],
+                &moved.session,
+            );
             matched[j as usize] = true;
         }
         for (j, landmark) in moved.landmarks.iter().enumerate() {
@@ -61,7 +73,11 @@ pub fn fuse_maps(
             }
         }
     }
-    let fused = merged.landmarks.iter().filter(|l| l.sessions.len() > 1).count();
+    let fused = merged
+        .landmarks
+        .iter()
+        .filter(|l| l.sessions.len() > 1)
+        .count();
     Fused { map: merged, fused }
 }
 
@@ -76,7 +92,8 @@ fn fuse_into(target: &mut Landmark, other: &Landmark, other_session: &str) {
     let Some(covariance) = (info_a + info_b).try_inverse() else {
         return;
     };
-    target.position = (covariance * (info_a * target.position.coords + info_b * other.position.coords)).into();
+    target.position =
+        (covariance * (info_a * target.position.coords + info_b * other.position.coords)).into();
     target.covariance = (covariance + covariance.transpose()) * 0.5;
     target.observations += other.observations;
     target.size_m = match (target.size_m, other.size_m) {

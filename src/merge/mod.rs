@@ -7,7 +7,8 @@
 //! 2. [`frames`]: one frame variable per map in a pose graph, accepted pairwise transforms
 //!    as robust between factors, the reference frame fixed — so a wrong pairwise answer is
 //!    out-voted by the consistent ones; maps not connected to the reference are reported;
-//! 3. [`fuse`]: landmarks that are the same boulder across maps are fused
+//! 3. [`refine_frames`]: every frame re-aligned to all other maps' landmarks at once;
+//! 4. [`fuse`]: landmarks that are the same boulder across maps are fused
 //!    (covariance-weighted, observation counts summed, provenance kept).
 //!
 //! ```
@@ -23,6 +24,7 @@
 pub mod frames;
 pub mod fuse;
 pub mod pairwise;
+pub mod refine_frames;
 
 use crate::relocalize::RelocalizeConfig;
 use nalgebra::Isometry3;
@@ -44,6 +46,8 @@ pub struct MergeConfig {
     /// Landmarks of different maps closer than this (m) in the reference frame are fused
     /// (mutual nearest neighbours).
     pub fuse_gate_m: f64,
+    /// Sweeps of joint frame refinement against all other maps' landmarks (0: none).
+    pub refine_sweeps: usize,
 }
 
 impl Default for MergeConfig {
@@ -52,6 +56,7 @@ impl Default for MergeConfig {
             factor_cauchy_scale: 3.0,
             outvoted_m: 0.10,
             fuse_gate_m: 0.10,
+            refine_sweeps: 3,
         }
     }
 }
@@ -154,7 +159,23 @@ pub fn merge_maps(
     let t = Instant::now();
     let mut pairs = pairs;
     let centroids: Vec<_> = maps.iter().map(centroid).collect();
-    let solved = frames::solve_frames(maps.len(), reference, &mut pairs, &centroids, config)?;
+    let mut solved = frames::solve_frames(maps.len(), reference, &mut pairs, &centroids, config)?;
+    let dof = relocalize
+        .dof
+        .unwrap_or(if maps[reference].gravity_aligned {
+            crate::align::Dof::Four
+        } else {
+            crate::align::Dof::Six
+        });
+    refine_frames::refine_frames(
+        maps,
+        &mut solved.reference_from_map,
+        reference,
+        dof,
+        &relocalize.refine,
+        config.refine_sweeps,
+        relocalize.verification.min_inliers,
+    );
     let frames_ms = ms_since(t);
 
     let t = Instant::now();

@@ -43,7 +43,10 @@ pub fn relocalize_pairs(
     maps: &[ObjectMap],
     config: &RelocalizeConfig,
 ) -> Result<Vec<PairOutcome>, crate::relocalize::RelocalizeError> {
-    let min_landmarks = config.verification.min_inliers.max(crate::relocalize::MIN_LANDMARKS);
+    let min_landmarks = config
+        .verification
+        .min_inliers
+        .max(crate::relocalize::MIN_LANDMARKS);
     let relocalizers: Vec<Option<Relocalizer>> = maps
         .iter()
         .map(|m| {

@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# Map merging with the real LunarLoc traverses as agents. Writes the section of
+# BENCHMARKS.md between <!-- merge:begin --> and <!-- merge:end --> (nothing else).
+#
+#   scripts/bench_merge.sh        (from anywhere)
+# Environment: SEGLOC_DATA (default ../shared/data, relative to the repo root).
+set -euo pipefail
+repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo_root"
+data="${SEGLOC_DATA:-../shared/data}"
+[ -d "$data/lunarloc" ] || { echo "bench_merge: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
+cargo build --release --quiet
+bin=target/release/segloc
+out=target/bench
+mkdir -p "$out"
+echo "[bench_merge] 5 agents + 1 decoy, 100 trials" >&2
+$bin eval merge --data "$data" --agents 5 --decoys 1 --trials 100 --seed 1 --json > "$out/merge5.json"
+echo "[bench_merge] all 17 agents + 2 decoys, 3 trials" >&2
+$bin eval merge --data "$data" --agents 17 --decoys 2 --trials 3 --seed 2 --json > "$out/merge17.json"
+python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" "$(cut -d' ' -f1-3 /proc/loadavg)" <<'PY'
+import json, re, sys
+out, date, machine, commit, load = sys.argv[1:6]
+m5 = json.load(open(f"{out}/merge5.json")); m17 = json.load(open(f"{out}/merge17.json"))
+L = []
+w = L.append
+w("## Map merging: LunarLoc traverses as agents")
+w("")
+w(f"Command: `scripts/bench_merge.sh` (writes this section only). Date: {date}. Machine: {machine} "
+  f"(load average {load} at the end: other jobs shared it). Commit `{commit}`. Times are wall clock, both cores.")
+w("")
+w("Each agent is one traverse moved by its own random rigid transform (any yaw, ±20 m, ±1 m) and fused into a map in "
+  "its moved frame; the merge places every map in the first one's frame. Placement error: translation of "
+  "`estimate · truth⁻¹` in the world frame (at the lander) and its rotation. Decoys are traverses mirrored in x: "
+  "the statistics of a real map, but no rigid motion matches them to anything, so they must be reported "
+  "disconnected.")
+w("")
+def block(r, title, cmd):
+    w(f"### {title}")
+    w("")
+    w(f"`{cmd}`")
+    w("")
+    w(f"- real agents placed: {r['placed']}/{r['agents']} (reference excluded); placed outside 1 cm or 0.1°: **{r['placed_outside_1cm_0p1deg']}**")
+    w(f"- decoys placed: **{r['decoys_placed']}/{r['decoys']}**")
+    te, re_ = r['translation_error_m'], r['rotation_error_deg']
+    w(f"- placement error: translation mean {100*te['mean']:.2f} cm, median {100*te['median']:.2f} cm, max {100*te['max']:.2f} cm; rotation mean {re_['mean']:.3f}°, max {re_['max']:.3f}°")
+    t = r['time_ms']
+    w(f"- merge time: median {t['median']:.0f} ms, max {t['max']:.0f} ms; merged landmarks {r['trials'][0]['landmarks']} (fused from ≥ 2 maps: {r['trials'][0]['fused']}) in the first trial")
+    w("")
+block(m5, "5 agents + 1 decoy, 100 trials", "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 1")
+w("Placements outside 1 cm / 0.1° come in groups: in such a trial every agent is shifted by about the same "
+  "centimetre relative to the reference. The reference traverse fixes the frame, and its own landmarks carry a "
+  "systematic bias of that size (centroids lie on the visible faces of boulders it saw from one side); the agents "
+  "agree with each other to a few millimetres. The issue's bound (1 cm and 0.1° for every agent) is therefore "
+  "not met for about 5% of placements; the worst is quoted above.")
+w("")
+block(m17, "All 17 traverses + 2 decoys, 3 trials", "segloc eval merge --agents 17 --decoys 2 --trials 3 --seed 2")
+text = "\n".join(L)
+path = "BENCHMARKS.md"
+doc = open(path).read()
+begin, end = "<!-- merge:begin -->", "<!-- merge:end -->"
+block_text = f"{begin}\n{text}\n{end}"
+if begin in doc and end in doc:
+    doc = re.sub(re.escape(begin) + r".*?" + re.escape(end), lambda m: block_text, doc, flags=re.S)
+else:
+    doc = doc.rstrip("\n") + "\n\n" + block_text + "\n"
+open(path, "w").write(doc)
+print("wrote the merge section of BENCHMARKS.md", file=sys.stderr)
+PY
