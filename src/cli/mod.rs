@@ -4,6 +4,7 @@ mod bench;
 mod config;
 mod demo;
 mod eval;
+mod grid;
 mod map;
 mod relocalize;
 
@@ -44,6 +45,9 @@ pub enum Command {
     /// Print or check the configuration.
     #[command(subcommand)]
     Config(config::ConfigCommand),
+    /// LAC height / rock grids: build the rock map from real detections, score a grid.
+    #[command(subcommand)]
+    Grid(grid::GridCommand),
 }
 
 /// Run a parsed command line; returns the exit code.
@@ -56,6 +60,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Eval(cmd) => eval::run(&cmd, &config),
         Command::Bench(cmd) => bench::run(&cmd, &config),
         Command::Config(cmd) => config::run(&cmd, &config),
+        Command::Grid(cmd) => grid::run(&cmd),
     }
 }
 
