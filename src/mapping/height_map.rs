@@ -21,7 +21,8 @@ use crate::landmarks::estimate::median;
 /// use segloc::mapping::HeightMapBuilder;
 /// use segloc_maps::LacGrid;
 /// let mut b = HeightMapBuilder::new(LacGrid::new(10, 0.15));
-/// for (x, y) in [(-0.7, -0.7), (0.7, -0.7), (-0.7, 0.7), (0.7, 0.7)] {
+/// // four corner cells, points at their centres, on the plane z = 0.5 + 0.1 x
+/// for (x, y) in [(-0.675, -0.675), (0.675, -0.675), (-0.675, 0.675), (0.675, 0.675)] {
 ///     b.add_point(&Point3::new(x, y, 0.5 + 0.1 * x));
 /// }
 /// let grid = b.build();
