@@ -18,6 +18,7 @@ pub mod graph;
 pub mod io;
 pub mod landmarks;
 pub mod merge;
+pub mod mapping;
 pub mod relocalize;
 pub mod sim;
 pub mod spatial;

@@ -5,6 +5,7 @@ mod config;
 mod demo;
 mod eval;
 mod graph;
+mod grid;
 mod map;
 mod relocalize;
 
@@ -47,6 +48,9 @@ pub enum Command {
     /// Print or check the configuration.
     #[command(subcommand)]
     Config(config::ConfigCommand),
+    /// LAC height / rock grids: build the rock map from real detections, score a grid.
+    #[command(subcommand)]
+    Grid(grid::GridCommand),
 }
 
 /// Run a parsed command line; returns the exit code.
@@ -60,6 +64,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Bench(cmd) => bench::run(&cmd, &config),
         Command::Config(cmd) => config::run(&cmd, &config),
         Command::Graph(args) => graph::run(&args),
+        Command::Grid(cmd) => grid::run(&cmd),
     }
 }
 

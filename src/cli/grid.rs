@@ -1,0 +1,232 @@
+//! `segloc grid rocks|score|tune`: LAC grids from real detections, and their score.
+
+use super::print_json;
+use anyhow::{Context, Result};
+use clap::Subcommand;
+use segloc::mapping::{
+    cross_validate, pictures, score, sensitivity, RockEvidence, RockEvidenceConfig,
+};
+use segloc_maps::{read_grid_csv, read_lunarloc_traverse, write_grid_csv, LacGrid, Traverse};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Grid commands.
+#[derive(Subcommand, Debug)]
+pub enum GridCommand {
+    /// Build the LAC rock map (180 × 180 cells of 0.15 m, heights unfilled) from LunarLoc
+    /// traverse CSVs: cells detected far more often than their exposure explains.
+    Rocks {
+        /// LunarLoc traverse CSVs (`traverse_N.csv`).
+        #[arg(long, num_args = 1.., required = true)]
+        traverses: Vec<PathBuf>,
+        /// The grid CSV to write (atomically), in the ground-truth format.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Rock-evidence parameters (TOML of `RockEvidenceConfig`); defaults otherwise.
+        #[arg(long, value_name = "FILE")]
+        evidence_config: Option<PathBuf>,
+        /// Override the minimum detections per rock cell.
+        #[arg(long)]
+        min_hits: Option<u32>,
+        /// Override the minimum detections per unit of exposure.
+        #[arg(long)]
+        min_rate: Option<f64>,
+        /// Print a JSON summary.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Score a grid CSV against a ground-truth grid CSV by the LAC rules.
+    Score {
+        /// The grid to score.
+        grid: PathBuf,
+        /// The ground truth (e.g. lac-groundtruth/moon_map_01_preset_1.csv).
+        #[arg(long)]
+        groundtruth: PathBuf,
+        /// Mission duration (s) for the productivity points.
+        #[arg(long)]
+        mission_seconds: Option<f64>,
+        /// Also draw the rock map (true / false positives and negatives) to this PNG.
+        #[arg(long, value_name = "PNG")]
+        rock_picture: Option<PathBuf>,
+        /// Also draw the height error to this PNG.
+        #[arg(long, value_name = "PNG")]
+        height_picture: Option<PathBuf>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Tune the rock-evidence thresholds: sector cross-validation and sensitivity.
+    Tune {
+        /// LunarLoc traverse CSVs.
+        #[arg(long, num_args = 1.., required = true)]
+        traverses: Vec<PathBuf>,
+        /// The ground truth grid CSV.
+        #[arg(long)]
+        groundtruth: PathBuf,
+        /// Number of angular sectors.
+        #[arg(long, default_value_t = 4)]
+        folds: usize,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Run a grid command.
+pub fn run(cmd: &GridCommand) -> Result<i32> {
+    match cmd {
+        GridCommand::Rocks {
+            traverses,
+            output,
+            evidence_config,
+            min_hits,
+            min_rate,
+            json,
+        } => {
+            let mut config = load_evidence_config(evidence_config.as_deref())?;
+            if let Some(h) = min_hits {
+                config.min_hits = *h;
+            }
+            if let Some(r) = min_rate {
+                anyhow::ensure!(
+                    r.is_finite() && *r >= 0.0,
+                    "--min-rate must be a non-negative number, got {r}"
+                );
+                config.min_rate = *r;
+            }
+            let loaded = read_traverses(traverses)?;
+            let evidence = RockEvidence::from_traverses(&LacGrid::new_lac(), &loaded, &config);
+            let grid = evidence.rock_grid();
+            write_grid_csv(&grid, output).context("writing the rock grid")?;
+            let detections: usize = loaded.iter().map(Traverse::num_detections).sum();
+            if *json {
+                print_json(&json!({
+                    "output": output, "traverses": loaded.len(), "detections": detections,
+                    "views": evidence.views, "rock_cells": grid.rock_count(), "config": config,
+                }))?;
+            } else {
+                println!(
+                    "{} rock cells from {} detections in {} traverses ({} views) -> {}",
+                    grid.rock_count(),
+                    detections,
+                    loaded.len(),
+                    evidence.views,
+                    output.display()
+                );
+            }
+            Ok(0)
+        }
+        GridCommand::Score {
+            grid,
+            groundtruth,
+            mission_seconds,
+            rock_picture,
+            height_picture,
+            json,
+        } => {
+            let estimate = read_grid_csv(grid)?;
+            let truth = read_grid_csv(groundtruth)?;
+            let s = score(&estimate, &truth, *mission_seconds)
+                .with_context(|| format!("scoring {}", grid.display()))?;
+            if let Some(p) = rock_picture {
+                let title = format!("ROCK MAP F1 {:.3}", s.rock_f1);
+                pictures::rock_map_png(&estimate, &truth, &title, p)?;
+            }
+            if let Some(p) = height_picture {
+                let title = format!("HEIGHT MAP {:.1}/300", s.geometric);
+                pictures::height_error_png(&estimate, &truth, &title, p)?;
+            }
+            if *json {
+                print_json(&s)?;
+            } else {
+                println!(
+                    "geometric    {:7.2} / 300  ({:.2}% of cells within 5 cm)",
+                    s.geometric,
+                    100.0 * s.height_within_5cm_fraction
+                );
+                println!(
+                    "rocks        {:7.2} / 300  (F1 {:.4}: precision {:.4}, recall {:.4}; TP {}, FP {}, FN {})",
+                    s.rocks, s.rock_f1, s.rock_precision, s.rock_recall, s.true_positives,
+                    s.false_positives, s.false_negatives
+                );
+                match mission_seconds {
+                    Some(_) => println!("productivity {:7.2} / 250", s.productivity),
+                    None => println!("productivity    0.00 / 250  (no --mission-seconds)"),
+                }
+                println!("fiducials    {:7.2} / 150", s.fiducials);
+                println!("total        {:7.2} / 1000", s.total);
+            }
+            Ok(0)
+        }
+        GridCommand::Tune {
+            traverses,
+            groundtruth,
+            folds,
+            json,
+        } => {
+            anyhow::ensure!(*folds >= 2, "--folds must be at least 2");
+            let truth = read_grid_csv(groundtruth)?;
+            let loaded = read_traverses(traverses)?;
+            let config = RockEvidenceConfig::default();
+            let evidence = RockEvidence::from_traverses(&truth, &loaded, &config);
+            let hits = [1, 2, 3, 4, 5];
+            let rates: Vec<f64> = (1..=40).map(|k| 0.01 * k as f64).collect();
+            let cv = cross_validate(&evidence, &truth, &hits, &rates, *folds);
+            let table = sensitivity(&evidence, &truth, &hits, &rates);
+            let at_default = sensitivity(&evidence, &truth, &[config.min_hits], &[config.min_rate]);
+            let best = table.iter().max_by(|a, b| a.f1.total_cmp(&b.f1)).cloned();
+            if *json {
+                print_json(&json!({
+                    "cross_validation": cv, "default": at_default.first(), "best_in_sample": best,
+                    "sensitivity": table,
+                }))?;
+            } else {
+                let h = &cv.held_out;
+                println!(
+                    "{}-sector cross-validation: held-out F1 {:.4} (precision {:.4}, recall {:.4}; TP {}, FP {}, FN {}); chosen {:?}",
+                    cv.folds, h.f1, h.precision, h.recall, h.tp, h.fp, h.fn_, cv.chosen
+                );
+                if let Some(d) = at_default.first() {
+                    println!(
+                        "defaults (min_hits {}, min_rate {}): F1 {:.4} (precision {:.4}, recall {:.4})",
+                        d.min_hits, d.min_rate, d.f1, d.precision, d.recall
+                    );
+                }
+                println!("sensitivity (F1 by min_hits, rows; min_rate, columns):");
+                print!("      ");
+                for r in rates.iter().step_by(2) {
+                    print!(" {r:5.2}");
+                }
+                println!();
+                for &hh in &hits {
+                    print!("  {hh:2}  ");
+                    for r in rates.iter().step_by(2) {
+                        let f = table
+                            .iter()
+                            .find(|t| t.min_hits == hh && t.min_rate == *r)
+                            .map_or(f64::NAN, |t| t.f1);
+                        print!(" {f:5.3}");
+                    }
+                    println!();
+                }
+            }
+            Ok(0)
+        }
+    }
+}
+
+fn read_traverses(paths: &[PathBuf]) -> Result<Vec<Traverse>> {
+    paths
+        .iter()
+        .map(|p| read_lunarloc_traverse(p).map_err(anyhow::Error::from))
+        .collect()
+}
+
+fn load_evidence_config(path: Option<&Path>) -> Result<RockEvidenceConfig> {
+    let Some(path) = path else {
+        return Ok(RockEvidenceConfig::default());
+    };
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("evidence config {}", path.display()))
+}

@@ -1,0 +1,25 @@
+//! Lunar Autonomy Challenge maps: the height and rock layers of the 180 × 180 grid, their
+//! score, and pictures of them.
+//!
+//! - [`HeightMapBuilder`] ([`height_map`]): ground points → per-cell medians, filled by
+//!   natural-neighbour interpolation (nearest observed cell outside the convex hull);
+//! - [`rock_grid`] ([`rock_footprint`]): fused landmarks → the cells their footprints cover;
+//! - [`RockEvidence`] ([`rock_evidence`]): raw detections with the rover's views → cells
+//!   detected far more often than their exposure explains (the real-data rock map);
+//! - [`score`] ([`mod@score`]): the LAC points of a grid against the ground truth;
+//! - [`pictures`]: PNGs of the height error, the rock map and trajectories, drawn with
+//!   the small rasteriser in [`raster`].
+
+pub mod height_map;
+pub mod pictures;
+pub mod raster;
+pub mod rock_evidence;
+pub mod rock_footprint;
+pub mod score;
+pub mod tune;
+
+pub use height_map::HeightMapBuilder;
+pub use rock_evidence::{traverse_views, RockEvidence, RockEvidenceConfig};
+pub use rock_footprint::{rock_grid, RockGridConfig};
+pub use score::{score, LacScore, ScoreError};
+pub use tune::{cross_validate, sensitivity, CrossValidation, ThresholdResult};

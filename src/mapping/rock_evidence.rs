@@ -1,0 +1,390 @@
+//! The rock layer from raw boulder detections: an evidence grid normalised by exposure.
+//!
+//! A rock cell keeps producing detections whenever it is in view; a spurious detection
+//! (a shadow, a crater rim, the lander's legs) does not, and a boulder near the camera is
+//! seen every second while one at 5 m is seen now and then. So each cell keeps two sums:
+//!
+//! - **hits**: detections whose centroid falls in the cell (each detection votes for its
+//!   own cell: the centroids of one boulder spread over the cells the boulder covers, and
+//!   a fused landmark's single centroid would mark only one of them);
+//! - **exposure**: for every detection frame, whether the cell was in the camera's view
+//!   (range in `[min_range_m, max_range_m]`, bearing within `half_fov_deg` of the
+//!   heading), weighted by `(reference_range_m / range)^range_exponent` — the rate at which
+//!   false detections land in a cell falls off about as range⁻³ on the real traverses
+//!   (a wider wedge spreads them over more cells, and far detections are rarer).
+//!
+//! A cell is a rock when it has at least `min_hits` hits and `hits / exposure` is at least
+//! `min_rate`: the hits are far more than the view alone explains.
+//!
+//! The LunarLoc traverses give rover positions but no orientation: the heading of a frame
+//! is the direction of travel over ± `heading_window_frames`, replaced by the circular
+//! mean bearing of the frame's detections when the rover barely moved or a detection lies
+//! outside the field of view around it (turning on the spot, reversing). Detection frames
+//! come at a fixed cadence per traverse (every 4, 6 or 20 simulator frames); the cadence
+//! is the median gap between frames with detections, and frames at that cadence without
+//! detections count as views too.
+
+use nalgebra::{Point2, Point3};
+use rayon::prelude::*;
+use segloc_maps::{LacGrid, Traverse};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the detection evidence grid (defaults tuned on the real LunarLoc
+/// traverses by spatial cross-validation; see BENCHMARKS.md).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RockEvidenceConfig {
+    /// Detections and views nearer than this (m, horizontal) are ignored.
+    pub min_range_m: f64,
+    /// Detections and views farther than this (m, horizontal) are ignored.
+    pub max_range_m: f64,
+    /// Half the camera's horizontal field of view used for views (degrees).
+    pub half_fov_deg: f64,
+    /// Exponent of the range weighting of a view.
+    pub range_exponent: f64,
+    /// Range (m) at which a view weighs 1.
+    pub reference_range_m: f64,
+    /// A rock cell needs at least this many detections.
+    pub min_hits: u32,
+    /// A rock cell needs at least this many detections per unit of exposure.
+    pub min_rate: f64,
+    /// Heading from the motion between this many frames before and after (traverses).
+    pub heading_window_frames: usize,
+    /// Motion (m) below which the heading comes from the detections instead.
+    pub min_heading_motion_m: f64,
+}
+
+impl Default for RockEvidenceConfig {
+    fn default() -> Self {
+        Self {
+            min_range_m: 1.4,
+            max_range_m: 6.0,
+            half_fov_deg: 30.0,
+            range_exponent: 3.0,
+            reference_range_m: 2.0,
+            min_hits: 2,
+            min_rate: 0.11,
+            heading_window_frames: 20,
+            min_heading_motion_m: 0.1,
+        }
+    }
+}
+
+/// Hits and exposure per cell of a grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RockEvidence {
+    /// The grid geometry (heights unfilled, rocks unset).
+    pub geometry: LacGrid,
+    /// Detections per cell, at [`LacGrid::index`].
+    pub hits: Vec<f64>,
+    /// Range-weighted views per cell, at [`LacGrid::index`].
+    pub exposure: Vec<f64>,
+    /// Views (detection frames) accumulated.
+    pub views: usize,
+    config: RockEvidenceConfig,
+}
+
+impl RockEvidence {
+    /// Empty evidence on the geometry of `grid`.
+    pub fn new(grid: &LacGrid, config: &RockEvidenceConfig) -> Self {
+        let n = grid.num_cells();
+        RockEvidence {
+            geometry: LacGrid::new(grid.cells_per_side, grid.cell_size_m),
+            hits: vec![0.0; n],
+            exposure: vec![0.0; n],
+            views: 0,
+            config: config.clone(),
+        }
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &RockEvidenceConfig {
+        &self.config
+    }
+
+    /// Add one detection frame: the rover at `rover_world` looking along `heading_rad`
+    /// (world frame, from +x towards +y), and the boulder centroids it detected.
+    pub fn add_view(
+        &mut self,
+        rover_world: &Point3<f64>,
+        heading_rad: f64,
+        detections_world: &[Point3<f64>],
+    ) {
+        let c = &self.config;
+        if !(rover_world.x.is_finite() && rover_world.y.is_finite() && heading_rad.is_finite()) {
+            return;
+        }
+        self.views += 1;
+        let (r_min, r_max) = (c.min_range_m, c.max_range_m);
+        for d in detections_world {
+            let range = (d.xy() - rover_world.xy()).norm();
+            if range < r_min || range > r_max {
+                continue;
+            }
+            if let Some((i, j)) = self.geometry.cell_of(d.x, d.y) {
+                let k = self.geometry.index(i, j);
+                self.hits[k] += 1.0;
+            }
+        }
+        let g = &self.geometry;
+        let n = g.cells_per_side;
+        let half = g.half_extent_m();
+        let size = g.cell_size_m;
+        let cos_fov = c.half_fov_deg.to_radians().cos();
+        let (ux, uy) = (heading_rad.cos(), heading_rad.sin());
+        let span = |v: f64| -> (usize, usize) {
+            let lo = ((v - r_max + half) / size).floor().max(0.0);
+            let hi = ((v + r_max + half) / size).floor().min(n as f64 - 1.0);
+            if hi < 0.0 || lo > n as f64 - 1.0 || lo > hi {
+                (1, 0)
+            } else {
+                (lo as usize, hi as usize)
+            }
+        };
+        let (i0, i1) = span(rover_world.x);
+        let (j0, j1) = span(rover_world.y);
+        let (r_min2, r_max2) = (r_min * r_min, r_max * r_max);
+        let half_exp = c.range_exponent / 2.0;
+        let ref2 = c.reference_range_m * c.reference_range_m;
+        for i in i0..=i1 {
+            let dx = g.cell_center(i, 0).0 - rover_world.x;
+            for j in j0..=j1 {
+                let dy = g.cell_center(0, j).1 - rover_world.y;
+                let r2 = dx * dx + dy * dy;
+                if r2 < r_min2 || r2 > r_max2 {
+                    continue;
+                }
+                let along = dx * ux + dy * uy;
+                if along < cos_fov * r2.sqrt() {
+                    continue;
+                }
+                self.exposure[i * n + j] += (ref2 / r2).powf(half_exp);
+            }
+        }
+    }
+
+    /// Add every detection frame of a LunarLoc traverse (see the module docs for the
+    /// heading and the cadence).
+    pub fn add_traverse(&mut self, traverse: &Traverse) {
+        for (rover, heading, detections) in traverse_views(traverse, &self.config) {
+            self.add_view(&rover, heading, &detections);
+        }
+    }
+
+    /// Evidence from many traverses, one thread per traverse.
+    pub fn from_traverses(
+        grid: &LacGrid,
+        traverses: &[Traverse],
+        config: &RockEvidenceConfig,
+    ) -> Self {
+        traverses
+            .par_iter()
+            .map(|t| {
+                let mut e = RockEvidence::new(grid, config);
+                e.add_traverse(t);
+                e
+            })
+            .reduce(
+                || RockEvidence::new(grid, config),
+                |mut a, b| {
+                    a.merge(&b);
+                    a
+                },
+            )
+    }
+
+    /// Add another evidence grid of the same geometry (cells are matched by index).
+    pub fn merge(&mut self, other: &RockEvidence) {
+        for (a, b) in self.hits.iter_mut().zip(&other.hits) {
+            *a += b;
+        }
+        for (a, b) in self.exposure.iter_mut().zip(&other.exposure) {
+            *a += b;
+        }
+        self.views += other.views;
+    }
+
+    /// Detections per unit of exposure of cell `k` (infinite with hits but no exposure).
+    pub fn rate(&self, k: usize) -> f64 {
+        let (h, e) = (self.hits[k], self.exposure[k]);
+        if h == 0.0 {
+            0.0
+        } else if e > 0.0 {
+            h / e
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Whether cell `k` is a rock under `min_hits` and `min_rate`.
+    pub fn is_rock(&self, k: usize, min_hits: u32, min_rate: f64) -> bool {
+        self.hits[k] >= min_hits as f64 && self.rate(k) >= min_rate
+    }
+
+    /// The rock grid under the configured thresholds (heights unfilled).
+    pub fn rock_grid(&self) -> LacGrid {
+        self.rock_grid_with(self.config.min_hits, self.config.min_rate)
+    }
+
+    /// The rock grid under other thresholds (for tuning).
+    pub fn rock_grid_with(&self, min_hits: u32, min_rate: f64) -> LacGrid {
+        let mut grid = self.geometry.clone();
+        for k in 0..grid.num_cells() {
+            grid.rock[k] = self.is_rock(k, min_hits, min_rate);
+        }
+        grid
+    }
+}
+
+/// The detection frames of a traverse as (rover position, heading, detections).
+pub fn traverse_views(
+    traverse: &Traverse,
+    config: &RockEvidenceConfig,
+) -> Vec<(Point3<f64>, f64, Vec<Point3<f64>>)> {
+    let frames = &traverse.frames;
+    let with: Vec<u64> = frames
+        .iter()
+        .filter(|f| !f.boulders.is_empty())
+        .map(|f| f.frame)
+        .collect();
+    let Some(&first) = with.first() else {
+        return Vec::new();
+    };
+    let mut gaps: Vec<u64> = with.windows(2).map(|w| w[1].saturating_sub(w[0])).collect();
+    gaps.retain(|&g| g > 0);
+    gaps.sort_unstable();
+    let cadence = gaps.get(gaps.len() / 2).copied().unwrap_or(1).max(1);
+    let phase = first % cadence;
+    let half_fov = config.half_fov_deg.to_radians();
+    let w = config.heading_window_frames;
+    let mut views = Vec::new();
+    let mut last_heading: Option<f64> = None;
+    for (n, f) in frames.iter().enumerate() {
+        if f.frame % cadence != phase {
+            continue;
+        }
+        let a = &frames[n.saturating_sub(w)].rover_position;
+        let b = &frames[(n + w).min(frames.len() - 1)].rover_position;
+        let motion = Point2::new(b.x - a.x, b.y - a.y);
+        let mut heading =
+            (motion.coords.norm() >= config.min_heading_motion_m).then(|| motion.y.atan2(motion.x));
+        let bearings: Vec<f64> = f
+            .boulders
+            .iter()
+            .map(|d| (d.y - f.rover_position.y).atan2(d.x - f.rover_position.x))
+            .collect();
+        if !bearings.is_empty() {
+            let outside = |h: f64| {
+                bearings
+                    .iter()
+                    .any(|&be| wrap(be - h).abs() > half_fov + 5f64.to_radians())
+            };
+            if heading.is_none_or(outside) {
+                let (s, c) = bearings
+                    .iter()
+                    .fold((0.0, 0.0), |(s, c), b| (s + b.sin(), c + b.cos()));
+                heading = Some(f64::atan2(s, c));
+            }
+        }
+        let Some(h) = heading.or(last_heading) else {
+            continue;
+        };
+        last_heading = Some(h);
+        views.push((f.rover_position, h, f.boulders.clone()));
+    }
+    views
+}
+
+/// An angle wrapped to (-π, π].
+fn wrap(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let r = a.rem_euclid(t);
+    if r > std::f64::consts::PI {
+        r - t
+    } else {
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use segloc_maps::TraverseFrame;
+
+    #[test]
+    fn exposure_covers_the_view_wedge_only() {
+        let grid = LacGrid::new(100, 0.15);
+        let mut e = RockEvidence::new(&grid, &RockEvidenceConfig::default());
+        e.add_view(&Point3::new(-5.0, 0.0, 0.0), 0.0, &[]);
+        let at = |x: f64, y: f64| {
+            let (i, j) = grid.cell_of(x, y).unwrap();
+            e.exposure[grid.index(i, j)]
+        };
+        assert!((at(-3.0, 0.0) - 1.0).abs() < 0.2); // 2 m ahead: weight about 1
+        assert!(at(-1.0, 0.0) > 0.0 && at(-1.0, 0.0) < 0.2); // 4 m: (2/4)^3
+        assert_eq!(at(-7.0, 0.0), 0.0); // behind
+        assert_eq!(at(-4.5, 0.0), 0.0); // too close
+        assert_eq!(at(-3.0, 2.0), 0.0); // 45° off the heading
+        assert_eq!(at(2.0, 0.0), 0.0); // too far
+        assert_eq!(e.views, 1);
+    }
+
+    #[test]
+    fn repeated_detections_make_a_rock_and_a_single_one_does_not() {
+        let grid = LacGrid::new(100, 0.15);
+        let mut e = RockEvidence::new(&grid, &RockEvidenceConfig::default());
+        let rock = Point3::new(-3.0, 0.02, 0.1);
+        let stray = Point3::new(-3.0, 0.5, 0.1);
+        for k in 0..10 {
+            let dets = if k == 3 {
+                vec![rock, stray]
+            } else {
+                vec![rock]
+            };
+            e.add_view(&Point3::new(-5.0, 0.0, 0.0), 0.0, &dets);
+        }
+        let g = e.rock_grid();
+        assert_eq!(g.rock_count(), 1);
+        let (i, j) = grid.cell_of(rock.x, rock.y).unwrap();
+        assert!(g.rock[grid.index(i, j)]);
+        assert_eq!(g.filled_count(), 0);
+    }
+
+    #[test]
+    fn traverse_views_follow_the_cadence_and_the_motion() {
+        // driving along +x at 0.2 m/s (20 Hz), detections every 20 frames
+        let frames: Vec<TraverseFrame> = (0..200u64)
+            .map(|f| TraverseFrame {
+                frame: f,
+                rover_position: Point3::new(0.01 * f as f64, 0.0, 0.0),
+                boulders: if f % 20 == 0 && f < 100 {
+                    vec![Point3::new(0.01 * f as f64 + 3.0, 0.5, 0.0)]
+                } else {
+                    vec![]
+                },
+            })
+            .collect();
+        let t = Traverse {
+            name: "t".into(),
+            frames,
+        };
+        let views = traverse_views(&t, &RockEvidenceConfig::default());
+        assert_eq!(views.len(), 10); // frames 0, 20, ..., 180
+        for (_, h, _) in &views {
+            assert!(h.abs() < 1e-9);
+        }
+        assert_eq!(views[0].2.len(), 1);
+        assert!(views[9].2.is_empty());
+        let empty = Traverse {
+            name: "e".into(),
+            frames: vec![],
+        };
+        assert!(traverse_views(&empty, &RockEvidenceConfig::default()).is_empty());
+    }
+
+    #[test]
+    fn wrap_angles() {
+        assert!((wrap(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
+        assert!((wrap(-0.5) + 0.5).abs() < 1e-12);
+    }
+}
