@@ -3,6 +3,7 @@
 mod bench;
 mod config;
 mod demo;
+mod detect;
 mod eval;
 mod map;
 mod relocalize;
@@ -41,6 +42,8 @@ pub enum Command {
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Find boulders in stereo images (one pair, or a `.lac` recording).
+    Detect(detect::DetectArgs),
     /// Print or check the configuration.
     #[command(subcommand)]
     Config(config::ConfigCommand),
@@ -56,6 +59,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Eval(cmd) => eval::run(&cmd, &config),
         Command::Bench(cmd) => bench::run(&cmd, &config),
         Command::Config(cmd) => config::run(&cmd, &config),
+        Command::Detect(args) => detect::run(&args),
     }
 }
 
