@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use segloc::perception::{
-    overlay::write_overlay, read_gray_png, FrontEnd, FrontEndConfig, GeometricSegmenter, Segmenter,
+    overlay::write_overlay, read_gray_png, write_gray_png, DisparityMap, FrontEnd, FrontEndConfig,
+    GeometricSegmenter, GrayImage, Segmenter,
 };
 use serde_json::json;
 
@@ -42,6 +43,9 @@ pub struct DetectArgs {
     /// Write an overlay picture (RGB PNG) of what was found.
     #[arg(long, value_name = "PNG")]
     pub overlay: Option<PathBuf>,
+    /// Write the disparity map as a grayscale PNG (brighter = nearer, black = no match).
+    #[arg(long, value_name = "PNG")]
+    pub disparity: Option<PathBuf>,
     /// Front-end settings (TOML, as printed by `--print-config`).
     #[arg(long, value_name = "TOML")]
     pub frontend_config: Option<PathBuf>,
@@ -130,6 +134,9 @@ fn detect_pair(
     if let Some(path) = &args.overlay {
         write_overlay(&left_image, &result, path)?;
     }
+    if let Some(path) = &args.disparity {
+        write_disparity_png(&result.disparity, path)?;
+    }
     if args.json {
         let boulders: Vec<_> = result
             .boulders
@@ -187,4 +194,27 @@ fn detect_lac(_args: &DetectArgs, _front_end: &mut FrontEnd, lac: &Path) -> Resu
         "{}: .lac playback is not available in this build",
         lac.display()
     )
+}
+
+fn write_disparity_png(map: &DisparityMap, path: &Path) -> Result<()> {
+    let max = map
+        .data
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite())
+        .fold(1.0f32, f32::max);
+    let data = map
+        .data
+        .iter()
+        .map(|&d| {
+            if d.is_finite() {
+                (30.0 + 225.0 * d / max) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    let image = GrayImage::new(map.width, map.height, data).context("disparity image")?;
+    write_gray_png(&image, path)?;
+    Ok(())
 }

@@ -29,6 +29,9 @@ pub struct GeometricConfig {
     pub height_per_range: f64,
     /// Disparity difference (fraction of the disparity) that still connects neighbours.
     pub connect_disparity_frac: f64,
+    /// A region stops growing this far (metres, in 3D) from its seed: boulders are compact,
+    /// terrain ridges are not.
+    pub max_extent_m: f64,
     /// Regions smaller than this (disparity-map pixels) are dropped.
     pub min_region_px: usize,
     /// Regions reaching higher than this above the ground are structures, not boulders.
@@ -49,6 +52,7 @@ impl Default for GeometricConfig {
             grow_height_m: 0.025,
             height_per_range: 0.006,
             connect_disparity_frac: 0.08,
+            max_extent_m: 1.2,
             min_region_px: 12,
             max_height_m: 1.0,
             max_base_height_m: 0.2,
@@ -123,6 +127,13 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
             continue;
         }
         let id = masks.len() as u32 + 1;
+        let cam = &disparity.camera;
+        let point = |p: usize| {
+            let z = heights.depth_m[p] as f64;
+            cam.back_project((p % w) as f64, (p / w) as f64, z)
+        };
+        let seed_point = point(seed);
+        let max_extent2 = config.max_extent_m * config.max_extent_m;
         region.clear();
         label[seed] = id;
         stack.push(seed);
@@ -141,6 +152,7 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
                     if label[q] == u32::MAX
                         && hag[q] > threshold(config.grow_height_m, q)
                         && (disparity.data[q] - dp).abs() <= tol
+                        && (point(q) - seed_point).norm_squared() <= max_extent2
                     {
                         label[q] = id;
                         stack.push(q);

@@ -36,6 +36,11 @@ pub struct GroundConfig {
     pub window_cells: usize,
     /// Percentile (0–1) of the heights in a cell taken as its ground level.
     pub cell_percentile: f64,
+    /// Residual (metres) above which a cell counts as an obstacle, not ground, in the
+    /// robust local plane fit.
+    pub obstacle_residual_m: f64,
+    /// Points more than this below the ground plane are mismatches and ignored, metres.
+    pub max_below_plane_m: f64,
 }
 
 impl Default for GroundConfig {
@@ -47,8 +52,10 @@ impl Default for GroundConfig {
             plane_inlier_m: 0.06,
             ransac_iterations: 150,
             cell_m: 0.2,
-            window_cells: 4,
+            window_cells: 3,
             cell_percentile: 0.3,
+            obstacle_residual_m: 0.03,
+            max_below_plane_m: 0.6,
         }
     }
 }
@@ -118,34 +125,11 @@ pub fn height_above_ground(disparity: &DisparityMap, config: &GroundConfig) -> O
             *v.select_nth_unstable_by(k, f32::total_cmp).1
         })
         .collect();
-    let r = config.window_cells as isize;
-    let mut local = vec![f32::NAN; n_cells * n_cells];
-    let mut window = Vec::with_capacity(((2 * r + 1) * (2 * r + 1)) as usize);
-    for cb in 0..n_cells as isize {
-        for ca in 0..n_cells as isize {
-            if level[cb as usize * n_cells + ca as usize].is_nan() {
-                continue;
-            }
-            window.clear();
-            for db in -r..=r {
-                for da in -r..=r {
-                    let (a, b) = (ca + da, cb + db);
-                    if a >= 0 && b >= 0 && (a as usize) < n_cells && (b as usize) < n_cells {
-                        let v = level[b as usize * n_cells + a as usize];
-                        if v.is_finite() {
-                            window.push(v);
-                        }
-                    }
-                }
-            }
-            let mid = window.len() / 2;
-            local[cb as usize * n_cells + ca as usize] =
-                *window.select_nth_unstable_by(mid, f32::total_cmp).1;
-        }
-    }
+    let local = local_ground(&level, n_cells, config);
     let mut above_ground_m = vec![f32::NAN; w * h];
     for (i, c, height) in point_cell {
-        if let Some(c) = c {
+        // points far below the plane are mismatches (nothing is seen through the ground)
+        if let Some(c) = c.filter(|_| height > -config.max_below_plane_m as f32) {
             above_ground_m[i] = height - local[c];
         }
     }
@@ -156,6 +140,65 @@ pub fn height_above_ground(disparity: &DisparityMap, config: &GroundConfig) -> O
         depth_m,
         normal,
     })
+}
+
+/// The local ground level at each non-empty cell: a plane fitted to the cell levels in the
+/// surrounding window by iteratively reweighted least squares with asymmetric weights
+/// (cells above the plane by more than `obstacle_residual_m` lose weight quadratically, so
+/// boulders do not lift the ground; cells below keep full weight), evaluated at the cell.
+fn local_ground(level: &[f32], n: usize, config: &GroundConfig) -> Vec<f32> {
+    let r = config.window_cells as isize;
+    let t = config.obstacle_residual_m.max(1e-3);
+    let mut out = vec![f32::NAN; n * n];
+    let mut cells: Vec<(f64, f64, f64)> = Vec::new();
+    for cb in 0..n as isize {
+        for ca in 0..n as isize {
+            if level[cb as usize * n + ca as usize].is_nan() {
+                continue;
+            }
+            cells.clear();
+            for db in -r..=r {
+                for da in -r..=r {
+                    let (a, b) = (ca + da, cb + db);
+                    if a >= 0 && b >= 0 && (a as usize) < n && (b as usize) < n {
+                        let v = level[b as usize * n + a as usize];
+                        if v.is_finite() {
+                            cells.push((da as f64, db as f64, v as f64));
+                        }
+                    }
+                }
+            }
+            // start from the median level (flat), then fit planes
+            let mut z: Vec<f64> = cells.iter().map(|c| c.2).collect();
+            let mid = z.len() / 2;
+            let mut plane = [*z.select_nth_unstable_by(mid, f64::total_cmp).1, 0.0, 0.0];
+            if cells.len() >= 6 {
+                for _ in 0..4 {
+                    let mut ata = nalgebra::Matrix3::<f64>::zeros();
+                    let mut atb = Vector3::<f64>::zeros();
+                    for &(x, y, v) in &cells {
+                        let res = v - (plane[0] + plane[1] * x + plane[2] * y);
+                        let wgt = if res > t { (t / res).powi(2) } else { 1.0 };
+                        let row = Vector3::new(1.0, x, y);
+                        ata += wgt * row * row.transpose();
+                        atb += wgt * v * row;
+                    }
+                    // a little ridge on the slopes keeps sparse windows stable
+                    ata[(1, 1)] += 1e-2;
+                    ata[(2, 2)] += 1e-2;
+                    match ata.cholesky() {
+                        Some(ch) => {
+                            let sol = ch.solve(&atb);
+                            plane = [sol[0], sol[1], sol[2]];
+                        }
+                        None => break,
+                    }
+                }
+            }
+            out[cb as usize * n + ca as usize] = plane[0] as f32;
+        }
+    }
+    out
 }
 
 /// RANSAC plane with the normal pointing up (−y in the camera frame) and tilted at most
