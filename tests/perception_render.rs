@@ -87,3 +87,90 @@ fn bare_ground_gives_no_boulders() {
     let result = fe.process(&pair.left, &pair.right).unwrap();
     assert!(result.boulders.is_empty(), "{:?}", result.boulders);
 }
+
+/// A two-frame `.lac` of a rendered scene, played back by `segloc detect --lac`, gives
+/// detections in the world frame that `segloc map build` accepts; a truncated copy exits 2.
+#[test]
+fn lac_playback_writes_detections_that_map_build_reads() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use segloc::perception::lac::{ImageKind, LacFrame, LacWriter};
+
+    let camera = StereoCamera::ipex();
+    let mut scene = SyntheticScene::default();
+    let s = scene.resting_sphere(4.0, 0.3, 0.25);
+    scene.spheres.push(s);
+    let pair = render_stereo(&scene, &camera);
+    let mut writer = LacWriter::new(toml::Table::new(), toml::Table::new());
+    for (k, frame) in [100u64, 120].into_iter().enumerate() {
+        writer.add_frame(LacFrame {
+            frame,
+            time_s: Some(frame as f64 * 0.05),
+            pose: Some(Isometry3::from_parts(
+                Translation3::new(k as f64, 2.0, 0.5),
+                UnitQuaternion::from_euler_angles(0.0, 0.0, 0.5),
+            )),
+            imu: None,
+        });
+        writer.add_image("FrontLeft", ImageKind::Grayscale, frame, pair.left.clone());
+        writer.add_image(
+            "FrontRight",
+            ImageKind::Grayscale,
+            frame,
+            pair.right.clone(),
+        );
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let lac = tmp.path().join("rendered.lac");
+    writer.write(&lac).unwrap();
+    let detections = tmp.path().join("det.csv");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+        .args(["detect", "--lac"])
+        .arg(&lac)
+        .arg("-o")
+        .arg(&detections)
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let set = segloc::maps::read_detections(&detections).unwrap();
+    assert_eq!(set.frame, "world");
+    assert_eq!(set.len(), 2, "{set:?}");
+    // the sphere's visible surface: rover frame ~ (0.28 + 3.8, 0.081 - 0.3, ...) rotated by yaw 0.5
+    let d = &set.detections[0];
+    let rover = d.rover_position.unwrap();
+    assert!((rover - nalgebra::Point3::new(0.0, 2.0, 0.5)).norm() < 1e-9);
+    let range = (d.p_world - rover).norm();
+    assert!((range - 4.05).abs() < 0.3, "range {range}");
+    let map = tmp.path().join("map.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+        .args(["map", "build"])
+        .arg(&detections)
+        .arg("-o")
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // truncated archive: exit code 2 and the file named
+    let bytes = std::fs::read(&lac).unwrap();
+    let cut = tmp.path().join("cut.lac");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+        .args(["detect", "--lac"])
+        .arg(&cut)
+        .arg("-o")
+        .arg(tmp.path().join("x.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cut.lac"));
+}

@@ -4,10 +4,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use nalgebra::Point3;
+use segloc::perception::lac::{ImageKind, LacRecording};
 use segloc::perception::{
     overlay::write_overlay, read_gray_png, write_gray_png, DisparityMap, FrontEnd, FrontEndConfig,
     GeometricSegmenter, GrayImage, Segmenter,
 };
+use segloc_maps::{write_detections, Detection, DetectionSet};
 use serde_json::json;
 
 /// Which segmenter to run.
@@ -189,11 +192,88 @@ fn detect_pair(
     Ok(0)
 }
 
-fn detect_lac(_args: &DetectArgs, _front_end: &mut FrontEnd, lac: &Path) -> Result<i32> {
-    bail!(
-        "{}: .lac playback is not available in this build",
-        lac.display()
-    )
+fn detect_lac(args: &DetectArgs, front_end: &mut FrontEnd, lac: &Path) -> Result<i32> {
+    let Some(output) = &args.output else {
+        bail!("--lac needs -o <detections.csv>");
+    };
+    let recording = LacRecording::open(lac)?;
+    let (left_cam, right_cam) = ("FrontLeft", "FrontRight");
+    let frames = recording.stereo_frames(left_cam, right_cam);
+    if frames.is_empty() {
+        bail!(
+            "{}: no frame has both {left_cam} and {right_cam} grayscale images (cameras: {:?})",
+            lac.display(),
+            recording.cameras()
+        );
+    }
+    let session = lac
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "lac".into());
+    let with_pose = frames
+        .iter()
+        .all(|&f| recording.frame(f).and_then(|r| r.pose).is_some());
+    let mut set = DetectionSet::new(
+        session,
+        if with_pose { "world" } else { "rover" },
+        with_pose,
+    );
+    let mut total_ms = 0.0;
+    let mut boulders = 0;
+    for &frame in &frames {
+        let (Some(left), Some(right)) = (
+            recording.image(left_cam, ImageKind::Grayscale, frame)?,
+            recording.image(right_cam, ImageKind::Grayscale, frame)?,
+        ) else {
+            continue;
+        };
+        let result = front_end
+            .process(&left, &right)
+            .with_context(|| format!("{} frame {frame}", lac.display()))?;
+        total_ms += result.timing.total_ms;
+        boulders += result.boulders.len();
+        let pose = recording
+            .frame(frame)
+            .and_then(|r| r.pose)
+            .filter(|_| with_pose);
+        for b in &result.boulders {
+            let [x, y, z] = b.position_rover;
+            let p_rover = Point3::new(x, y, z);
+            let (p_world, rover_position) = match &pose {
+                Some(world_from_rover) => (
+                    world_from_rover * p_rover,
+                    Some(Point3::from(world_from_rover.translation.vector)),
+                ),
+                None => (p_rover, None),
+            };
+            set.detections.push(Detection {
+                frame,
+                p_world,
+                rover_position,
+                size_m: Some(b.size_m),
+                score: Some(b.score),
+            });
+        }
+    }
+    write_detections(&set, output)?;
+    if args.json {
+        super::print_json(&json!({
+            "frames": frames.len(),
+            "detections": boulders,
+            "output": output,
+            "frame": set.frame,
+            "mean_time_ms": total_ms / frames.len() as f64,
+        }))?;
+    } else {
+        println!(
+            "{} detections from {} stereo frames ({:.1} ms per frame) -> {}",
+            boulders,
+            frames.len(),
+            total_ms / frames.len() as f64,
+            output.display()
+        );
+    }
+    Ok(0)
 }
 
 fn write_disparity_png(map: &DisparityMap, path: &Path) -> Result<()> {

@@ -30,6 +30,7 @@ pub mod boulders;
 pub mod front_end;
 pub mod geometric;
 pub mod ground;
+pub mod lac;
 pub mod mask;
 pub mod overlay;
 pub mod render;
