@@ -32,6 +32,7 @@ pub mod geometric;
 pub mod ground;
 pub mod lac;
 pub mod mask;
+pub mod onnx;
 pub mod overlay;
 pub mod render;
 pub mod segmenter;
