@@ -6,6 +6,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use nalgebra::Point3;
 use segloc::perception::lac::{ImageKind, LacRecording};
+use segloc::perception::onnx::OnnxSegmenter;
 use segloc::perception::{
     overlay::write_overlay, read_gray_png, write_gray_png, DisparityMap, FrontEnd, FrontEndConfig,
     GeometricSegmenter, GrayImage, Segmenter,
@@ -97,16 +98,10 @@ fn make_segmenter(args: &DetectArgs, config: &FrontEndConfig) -> Result<Box<dyn 
             let Some(model) = &args.model else {
                 bail!("--segmenter onnx needs --model <file.onnx>");
             };
-            make_onnx_segmenter(model)
+            let segmenter = OnnxSegmenter::load(model, config.onnx.clone())?;
+            Ok(Box::new(segmenter))
         }
     }
-}
-
-fn make_onnx_segmenter(model: &Path) -> Result<Box<dyn Segmenter>> {
-    bail!(
-        "{}: the ONNX segmenter is not available in this build",
-        model.display()
-    )
 }
 
 fn detect_pair(

@@ -24,6 +24,8 @@ pub struct FrontEndConfig {
     pub geometric: GeometricConfig,
     /// Masks to boulders.
     pub boulders: BoulderConfig,
+    /// Decoding of an ONNX segmenter's outputs.
+    pub onnx: super::onnx::YoloSegConfig,
 }
 
 /// Wall-clock times of the stages, milliseconds.
