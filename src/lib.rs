@@ -19,6 +19,7 @@ pub mod io;
 pub mod landmarks;
 pub mod merge;
 pub mod mapping;
+pub mod perception;
 pub mod relocalize;
 pub mod sim;
 pub mod spatial;

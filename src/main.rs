@@ -6,6 +6,7 @@ mod cli;
 use clap::Parser;
 
 fn main() {
+    restore_default_sigpipe();
     let parsed = cli::Cli::parse();
     let code = match cli::run(parsed) {
         Ok(code) => code,
@@ -15,4 +16,14 @@ fn main() {
         }
     };
     std::process::exit(code);
+}
+
+/// Rust ignores SIGPIPE, so printing into a closed pipe (`segloc ... | head`) would make
+/// `println!` panic; the default action ends the process quietly, as for any Unix tool.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to its default before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }

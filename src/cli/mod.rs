@@ -3,6 +3,7 @@
 mod bench;
 mod config;
 mod demo;
+mod detect;
 mod eval;
 mod graph;
 mod grid;
@@ -45,6 +46,8 @@ pub enum Command {
     Bench(bench::BenchCommand),
     /// SE(3) pose graph: optimise g2o / TORO files, benchmark, corrupt, compare.
     Graph(graph::GraphArgs),
+    /// Find boulders in stereo images (one pair, or a `.lac` recording).
+    Detect(detect::DetectArgs),
     /// Print or check the configuration.
     #[command(subcommand)]
     Config(config::ConfigCommand),
@@ -65,6 +68,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Config(cmd) => config::run(&cmd, &config),
         Command::Graph(args) => graph::run(&args),
         Command::Grid(cmd) => grid::run(&cmd),
+        Command::Detect(args) => detect::run(&args),
     }
 }
 

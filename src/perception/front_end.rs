@@ -1,0 +1,141 @@
+//! The whole front end on one stereo pair: stereo → segmentation → boulders, timed.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::boulders::{boulders_from_masks, Boulder, BoulderConfig, Rejection};
+use super::geometric::GeometricConfig;
+use super::segmenter::{SegmentInput, Segmenter};
+use super::{compute_disparity_with, CameraMount, DisparityMap, GrayImage, Mask, PerceptionError};
+use super::{StereoCamera, StereoConfig, StereoScratch};
+
+/// Everything the front end can be configured with (printable / loadable as TOML).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FrontEndConfig {
+    /// The stereo camera at full resolution.
+    pub camera: StereoCamera,
+    /// Where the left camera sits on the rover.
+    pub mount: CameraMount,
+    /// Semi-global matching.
+    pub stereo: StereoConfig,
+    /// The training-free segmenter.
+    pub geometric: GeometricConfig,
+    /// Masks to boulders.
+    pub boulders: BoulderConfig,
+    /// Decoding of an ONNX segmenter's outputs.
+    pub onnx: super::onnx::YoloSegConfig,
+}
+
+/// Wall-clock times of the stages, milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrontEndTiming {
+    /// Semi-global matching.
+    pub stereo_ms: f64,
+    /// Segmentation.
+    pub segment_ms: f64,
+    /// Masks to boulders.
+    pub boulders_ms: f64,
+    /// The whole front end.
+    pub total_ms: f64,
+}
+
+/// What the front end found in one pair.
+#[derive(Clone, Debug)]
+pub struct FrameResult {
+    /// The boulders, in mask order.
+    pub boulders: Vec<Boulder>,
+    /// Every mask the segmenter produced.
+    pub masks: Vec<Mask>,
+    /// For each mask: the index of its boulder, or why it was rejected.
+    pub verdicts: Vec<Result<usize, Rejection>>,
+    /// The disparity map.
+    pub disparity: DisparityMap,
+    /// Stage timings.
+    pub timing: FrontEndTiming,
+}
+
+/// Stereo, a segmenter and the boulder stage, run on stereo pairs.
+pub struct FrontEnd {
+    config: FrontEndConfig,
+    segmenter: Box<dyn Segmenter>,
+    scratch: StereoScratch,
+}
+
+impl FrontEnd {
+    /// A front end with this configuration and segmenter (validates the configuration).
+    pub fn new(
+        config: FrontEndConfig,
+        segmenter: Box<dyn Segmenter>,
+    ) -> Result<Self, PerceptionError> {
+        config.stereo.validate()?;
+        config.boulders.validate()?;
+        Ok(FrontEnd {
+            config,
+            segmenter,
+            scratch: StereoScratch::default(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &FrontEndConfig {
+        &self.config
+    }
+
+    /// The segmenter's name.
+    pub fn segmenter_name(&self) -> &'static str {
+        self.segmenter.name()
+    }
+
+    /// Run on one rectified pair (same size, a uniform scaling of the configured camera).
+    pub fn process(
+        &mut self,
+        left: &GrayImage,
+        right: &GrayImage,
+    ) -> Result<FrameResult, PerceptionError> {
+        let start = Instant::now();
+        let camera = self.config.camera.for_size(left.width, left.height)?;
+        let disparity =
+            compute_disparity_with(left, right, &camera, &self.config.stereo, &mut self.scratch)?;
+        let t_stereo = start.elapsed();
+        let masks = self.segmenter.segment(&SegmentInput {
+            left,
+            disparity: &disparity,
+            camera: &camera,
+        })?;
+        let t_segment = start.elapsed();
+        let outcomes = boulders_from_masks(
+            &masks,
+            &disparity,
+            &camera,
+            &self.config.mount,
+            &self.config.boulders,
+            Some((left, right)),
+        );
+        let mut boulders = Vec::new();
+        let verdicts = outcomes
+            .into_iter()
+            .map(|o| {
+                o.map(|b| {
+                    boulders.push(b);
+                    boulders.len() - 1
+                })
+            })
+            .collect();
+        let total = start.elapsed();
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        Ok(FrameResult {
+            boulders,
+            masks,
+            verdicts,
+            disparity,
+            timing: FrontEndTiming {
+                stereo_ms: ms(t_stereo),
+                segment_ms: ms(t_segment - t_stereo),
+                boulders_ms: ms(total - t_segment),
+                total_ms: ms(total),
+            },
+        })
+    }
+}

@@ -1,0 +1,199 @@
+//! Training-free boulder segmentation from stereo depth.
+//!
+//! A boulder is what stands out of the local ground surface ([`ground`](super::ground)):
+//! pixels higher than a seed threshold start a region, which grows (hysteresis) into
+//! neighbours that are still above a lower threshold and at a similar disparity (so a
+//! boulder does not merge with one behind it). The image helps where depth alone cannot
+//! tell: regions lying mostly in hard shadow (black, where stereo finds only noise) are
+//! dropped, and a region that also has a sunlit face scores higher. Regions reaching far
+//! above the ground (the lander, the rover's own parts) or floating above it are no
+//! boulders.
+
+use serde::{Deserialize, Serialize};
+
+use super::ground::{height_above_ground, GroundConfig};
+use super::segmenter::{SegmentInput, Segmenter};
+use super::{Mask, PerceptionError};
+
+/// Settings of the geometric segmenter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct GeometricConfig {
+    /// The ground estimate.
+    pub ground: GroundConfig,
+    /// Height above the local ground that starts a region, metres, at zero range.
+    pub seed_height_m: f64,
+    /// Height above ground that keeps growing a region, metres, at zero range.
+    pub grow_height_m: f64,
+    /// Both thresholds grow by this much per metre of range (stereo noise grows with it).
+    pub height_per_range: f64,
+    /// Disparity difference (fraction of the disparity) that still connects neighbours.
+    pub connect_disparity_frac: f64,
+    /// A region stops growing this far (metres, in 3D) from its seed: boulders are compact,
+    /// terrain ridges are not.
+    pub max_extent_m: f64,
+    /// Regions smaller than this (disparity-map pixels) are dropped.
+    pub min_region_px: usize,
+    /// Regions reaching higher than this above the ground are structures, not boulders.
+    pub max_height_m: f64,
+    /// Regions whose lowest pixel is higher than this above the ground float: not boulders.
+    pub max_base_height_m: f64,
+    /// Gray level below which a pixel is in hard shadow.
+    pub shadow_level: u8,
+    /// Regions with more than this fraction of their pixels in hard shadow are dropped.
+    pub max_shadow_fraction: f64,
+}
+
+impl Default for GeometricConfig {
+    fn default() -> Self {
+        GeometricConfig {
+            ground: GroundConfig::default(),
+            seed_height_m: 0.06,
+            grow_height_m: 0.025,
+            height_per_range: 0.006,
+            connect_disparity_frac: 0.08,
+            max_extent_m: 1.2,
+            min_region_px: 12,
+            max_height_m: 1.0,
+            max_base_height_m: 0.2,
+            shadow_level: 25,
+            max_shadow_fraction: 0.5,
+        }
+    }
+}
+
+/// The training-free geometric segmenter (see the module documentation).
+#[derive(Clone, Debug, Default)]
+pub struct GeometricSegmenter {
+    /// Its settings.
+    pub config: GeometricConfig,
+}
+
+impl GeometricSegmenter {
+    /// A segmenter with these settings.
+    pub fn new(config: GeometricConfig) -> Self {
+        GeometricSegmenter { config }
+    }
+}
+
+impl Segmenter for GeometricSegmenter {
+    fn name(&self) -> &'static str {
+        "geometric"
+    }
+
+    fn segment(&mut self, input: &SegmentInput<'_>) -> Result<Vec<Mask>, PerceptionError> {
+        Ok(segment_geometric(input, &self.config))
+    }
+}
+
+/// Masks (in left-image pixels) of what stands out of the ground.
+pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> Vec<Mask> {
+    let disparity = input.disparity;
+    let Some(heights) = height_above_ground(disparity, &config.ground) else {
+        return Vec::new();
+    };
+    let (w, h) = (disparity.width, disparity.height);
+    let scale = disparity.scale;
+    // intensity at the disparity map's resolution (mean of each block)
+    let intensity: Vec<u8> = if scale == 1 {
+        input.left.data.clone()
+    } else {
+        let mut out = vec![0u8; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = 0u32;
+                for dy in 0..scale {
+                    for dx in 0..scale {
+                        s += input.left.get(x * scale + dx, y * scale + dy) as u32;
+                    }
+                }
+                out[y * w + x] = (s / (scale * scale) as u32) as u8;
+            }
+        }
+        out
+    };
+    let threshold = |base: f64, i: usize| {
+        let z = heights.depth_m[i] as f64;
+        (base + config.height_per_range * z) as f32
+    };
+    let hag = &heights.above_ground_m;
+    let mut label = vec![u32::MAX; w * h];
+    let mut masks = Vec::new();
+    let mut stack = Vec::new();
+    let mut region = Vec::new();
+    for seed in 0..w * h {
+        let is_seed = hag[seed] > threshold(config.seed_height_m, seed);
+        if label[seed] != u32::MAX || !is_seed {
+            continue;
+        }
+        let id = masks.len() as u32 + 1;
+        let cam = &disparity.camera;
+        let point = |p: usize| {
+            let z = heights.depth_m[p] as f64;
+            cam.back_project((p % w) as f64, (p / w) as f64, z)
+        };
+        let seed_point = point(seed);
+        let max_extent2 = config.max_extent_m * config.max_extent_m;
+        region.clear();
+        label[seed] = id;
+        stack.push(seed);
+        while let Some(p) = stack.pop() {
+            region.push(p);
+            let (px, py) = ((p % w) as isize, (p / w) as isize);
+            let dp = disparity.data[p];
+            let tol = (config.connect_disparity_frac as f32 * dp).max(0.75);
+            for dy in -1..=1isize {
+                for dx in -1..=1isize {
+                    let (qx, qy) = (px + dx, py + dy);
+                    if qx < 0 || qy < 0 || qx >= w as isize || qy >= h as isize {
+                        continue;
+                    }
+                    let q = qy as usize * w + qx as usize;
+                    if label[q] == u32::MAX
+                        && hag[q] > threshold(config.grow_height_m, q)
+                        && (disparity.data[q] - dp).abs() <= tol
+                        && (point(q) - seed_point).norm_squared() <= max_extent2
+                    {
+                        label[q] = id;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        if region.len() < config.min_region_px {
+            masks.push(None);
+            continue;
+        }
+        let peak = region.iter().map(|&p| hag[p]).fold(f32::MIN, f32::max) as f64;
+        let base = region.iter().map(|&p| hag[p]).fold(f32::MAX, f32::min) as f64;
+        let shadow = region
+            .iter()
+            .filter(|&&p| intensity[p] < config.shadow_level)
+            .count() as f64
+            / region.len() as f64;
+        if peak > config.max_height_m
+            || base > config.max_base_height_m
+            || shadow > config.max_shadow_fraction
+        {
+            masks.push(None);
+            continue;
+        }
+        // sunlit face: a clearly brighter part than the region's median
+        let mut values: Vec<u8> = region.iter().map(|&p| intensity[p]).collect();
+        let mid = values.len() / 2;
+        let median = *values.select_nth_unstable(mid).1;
+        let sunlit = values
+            .iter()
+            .filter(|&&v| v as f64 > 1.3 * median as f64 + 10.0)
+            .count() as f64
+            / values.len() as f64;
+        let z = heights.depth_m[seed] as f64;
+        let prominence = peak / (config.seed_height_m + config.height_per_range * z);
+        let score = ((0.4 + 0.15 * prominence.min(4.0) + 0.3 * (sunlit * 4.0).min(1.0))
+            * (1.0 - shadow))
+            .clamp(0.0, 1.0);
+        let pixels: Vec<(usize, usize)> = region.iter().map(|&p| (p % w, p / w)).collect();
+        masks.push(Mask::from_pixels(&pixels, score as f32).map(|m| m.upscaled(scale)));
+    }
+    masks.into_iter().flatten().collect()
+}
