@@ -9,7 +9,7 @@ use segloc::eval::landmark_quality::{match_map, match_rocks};
 use segloc::eval::lunarloc::{
     all_pairs, evaluate, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
 };
-use segloc::eval::merge::{evaluate_merge, MergeEvalOptions};
+use segloc::eval::merge::{evaluate_merge, merged_rock_map, MergeEvalOptions};
 use segloc::eval::traverse_path;
 use segloc::landmarks::fuse_detections;
 use segloc::relocalize::RelocalizeConfig;
@@ -63,6 +63,10 @@ pub enum EvalCommand {
         /// Print one JSON object.
         #[arg(long)]
         json: bool,
+        /// Instead: merge all 17 traverses and compare the merged map's rock grid with
+        /// every single traverse's, against the LAC ground truth.
+        #[arg(long)]
+        rock_map: bool,
     },
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
@@ -120,11 +124,34 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
         }
         EvalCommand::Merge {
             data,
+            rock_map: true,
+            seed,
+            json,
+            ..
+        } => {
+            let r = merged_rock_map(data, *seed, config)?;
+            if *json {
+                print_json(&r)?;
+            } else {
+                println!(
+                    "merged map of all 17 traverses: rock F1 {:.3} (precision {:.3}, recall {:.3})",
+                    r.merged_f1, r.merged_precision, r.merged_recall
+                );
+                println!(
+                    "best single traverse: {} with F1 {:.3}",
+                    r.best_single.0, r.best_single.1
+                );
+            }
+            Ok(0)
+        }
+        EvalCommand::Merge {
+            data,
             agents,
             decoys,
             trials,
             seed,
             json,
+            ..
         } => {
             if *agents < 2 || *trials == 0 {
                 bail!("--agents must be at least 2 and --trials at least 1");

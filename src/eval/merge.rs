@@ -235,3 +235,59 @@ pub fn merge_all(
     let in_world = report.merged.transformed(&reference_truth, "world");
     Ok((report, in_world))
 }
+
+/// The rock map of the merged 17-traverse map against those of the single traverses, all
+/// made the same way (`mapping::rock_grid` from landmarks) and scored against the LAC
+/// ground truth.
+#[derive(Clone, Debug, Serialize)]
+pub struct RockMapComparison {
+    /// Rock-map F1 of the merged map.
+    pub merged_f1: f64,
+    /// Its precision.
+    pub merged_precision: f64,
+    /// Its recall.
+    pub merged_recall: f64,
+    /// F1 of each single traverse's map: (traverse, F1).
+    pub single_f1: Vec<(usize, f64)>,
+    /// The best single traverse and its F1.
+    pub best_single: (usize, f64),
+}
+
+/// Merge all 17 traverses (each in its own random frame), turn the merged map into a rock
+/// grid, and compare its F1 with every single traverse's.
+pub fn merged_rock_map(
+    data: &Path,
+    seed: u64,
+    config: &RelocalizeConfig,
+) -> Result<RockMapComparison, MapError> {
+    use crate::mapping::{rock_grid, score, RockGridConfig};
+    let truth = segloc_maps::read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
+    let grid_config = RockGridConfig::default();
+    let f1_of = |map: &ObjectMap| -> Result<(f64, f64, f64), MapError> {
+        let grid = rock_grid(&map.landmarks, &truth, &grid_config);
+        let s = score(&grid, &truth, None).map_err(|e| MapError::InvalidData {
+            what: "grid",
+            message: e.to_string(),
+        })?;
+        Ok((s.rock_f1, s.rock_precision, s.rock_recall))
+    };
+    let (_, merged_world) = merge_all(data, seed, config)?;
+    let (merged_f1, merged_precision, merged_recall) = f1_of(&merged_world)?;
+    let mut single_f1 = Vec::new();
+    for n in 1..=TRAVERSES {
+        let set = read_lunarloc_traverse(&traverse_path(data, n))?.detections();
+        single_f1.push((n, f1_of(&fuse_detections(&set, &config.landmarks))?.0));
+    }
+    let best_single = single_f1
+        .iter()
+        .copied()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0, 0.0));
+    Ok(RockMapComparison {
+        merged_f1,
+        merged_precision,
+        merged_recall,
+        single_f1,
+        best_single,
+    })
+}
