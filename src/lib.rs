@@ -14,6 +14,7 @@ pub mod align;
 pub mod eval;
 pub mod io;
 pub mod landmarks;
+pub mod planning;
 pub mod relocalize;
 pub mod sim;
 pub mod spatial;
