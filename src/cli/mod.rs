@@ -6,6 +6,7 @@ mod demo;
 mod eval;
 mod map;
 mod relocalize;
+mod sim;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -44,6 +45,9 @@ pub enum Command {
     /// Print or check the configuration.
     #[command(subcommand)]
     Config(config::ConfigCommand),
+    /// Simulation on the synthetic moon.
+    #[command(subcommand)]
+    Sim(sim::SimCommand),
 }
 
 /// Run a parsed command line; returns the exit code.
@@ -56,6 +60,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Eval(cmd) => eval::run(&cmd, &config),
         Command::Bench(cmd) => bench::run(&cmd, &config),
         Command::Config(cmd) => config::run(&cmd, &config),
+        Command::Sim(cmd) => sim::run(&cmd),
     }
 }
 

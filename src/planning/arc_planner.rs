@@ -318,6 +318,7 @@ mod tests {
         let c = ArcPlannerConfig::default();
         let mut m = ObstacleMemory::new(&ObstacleConfig::default());
         m.add_rock(Point2::new(2.0, 0.0), 0.2);
+        m.add_rock(Point2::new(2.0, 0.0), 0.2);
         let s = scene(&m);
         let a = c
             .choose(Pose2::new(0.0, 0.0, 0.0), Point2::new(5.0, 0.0), &s)
@@ -368,6 +369,7 @@ mod tests {
     fn can_back_away_from_a_late_rock() {
         let c = ArcPlannerConfig::default();
         let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+        m.add_rock(Point2::new(0.6, 0.0), 0.1);
         m.add_rock(Point2::new(0.6, 0.0), 0.1);
         let s = scene(&m);
         assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));

@@ -35,6 +35,8 @@ pub struct NavigatorConfig {
     /// After a scan found a free arc, keep driving arcs (no point turn toward the goal) for
     /// this long, seconds.
     pub commit_after_scan_s: f64,
+    /// Treat ground the cameras have not seen as blocked.
+    pub require_seen_ground: bool,
     /// Skip the waypoint after this many backups on the way to it.
     pub backups_per_waypoint: usize,
     /// Give up on a waypoint after this long, seconds.
@@ -47,7 +49,7 @@ impl Default for NavigatorConfig {
     fn default() -> Self {
         Self {
             arcs: ArcPlannerConfig::default(),
-            waypoint_reached_m: 0.7,
+            waypoint_reached_m: 1.0,
             point_turn_threshold_rad: 1.6,
             point_turn_rate_rps: 0.7,
             stall_window_s: 8.0,
@@ -55,8 +57,9 @@ impl Default for NavigatorConfig {
             backup_speed_mps: 0.2,
             backup_duration_s: 2.0,
             backups_per_waypoint: 3,
+            require_seen_ground: true,
             commit_after_scan_s: 4.0,
-            waypoint_timeout_s: 60.0,
+            waypoint_timeout_s: 30.0,
             lander_half_extent_m: crate::sim::ipex::LANDER_HALF_EXTENT_M,
         }
     }
@@ -181,7 +184,7 @@ impl Navigator {
             obstacles,
             lander: Some(lander),
             nav_from_session: self.nav_from_session,
-            seen,
+            seen: seen.filter(|_| self.config.require_seen_ground),
         };
         let here = Point2::new(pose.x, pose.y);
         // pick the waypoint: skip reached / blocked / timed-out ones
@@ -353,6 +356,7 @@ mod tests {
     fn reaches_waypoints_around_a_rock() {
         let mut obstacles = ObstacleMemory::new(&ObstacleConfig::default());
         obstacles.add_rock(Point2::new(6.0, 0.0), 0.3);
+        obstacles.add_rock(Point2::new(6.0, 0.0), 0.3);
         let mut nav = Navigator::new(
             &NavigatorConfig::default(),
             vec![Vector2::new(9.0, 0.0), Vector2::new(9.0, 4.0)],
@@ -394,6 +398,7 @@ mod tests {
         let mut obstacles = ObstacleMemory::new(&ObstacleConfig::default());
         for k in 0..13 {
             let a = -1.2 + 0.2 * k as f64;
+            obstacles.add_rock(Point2::new(1.0 * a.cos(), 1.0 * a.sin()), 0.1);
             obstacles.add_rock(Point2::new(1.0 * a.cos(), 1.0 * a.sin()), 0.1);
         }
         let mut nav = Navigator::new(&NavigatorConfig::default(), vec![Vector2::new(8.0, 0.0)]);

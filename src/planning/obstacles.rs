@@ -16,6 +16,9 @@ pub struct ObstacleConfig {
     pub radius_tolerance: f64,
     /// Detections closer than this to a remembered obstacle update it, metres.
     pub merge_radius_m: f64,
+    /// A rock counts once detected this many times (spurious detections rarely repeat);
+    /// lander points count at once.
+    pub min_hits: u32,
 }
 
 impl Default for ObstacleConfig {
@@ -24,6 +27,7 @@ impl Default for ObstacleConfig {
             min_rock_radius_m: 0.08,
             radius_tolerance: 0.85,
             merge_radius_m: 0.3,
+            min_hits: 2,
         }
     }
 }
@@ -81,15 +85,15 @@ impl ObstacleMemory {
         {
             return false;
         }
-        self.add(p, radius_m)
+        self.add(p, radius_m, 1)
     }
 
     /// Remember a point measured on the lander (radius 0: the point itself is the obstacle).
     pub fn add_point(&mut self, p: Point2<f64>) -> bool {
-        self.add(p, 0.0)
+        self.add(p, 0.0, self.config.min_hits.max(1))
     }
 
-    fn add(&mut self, p: Point2<f64>, radius_m: f64) -> bool {
+    fn add(&mut self, p: Point2<f64>, radius_m: f64, hits: u32) -> bool {
         if !p.x.is_finite() || !p.y.is_finite() || !radius_m.is_finite() {
             return false;
         }
@@ -107,29 +111,27 @@ impl ObstacleMemory {
                 let old = o.p;
                 let n = f64::from(o.hits);
                 o.p = Point2::from((old.coords * n + p.coords) / (n + 1.0));
-                o.hits += 1;
+                o.hits += hits;
                 o.radius_m = o.radius_m.max(radius_m);
                 let (old3, new3) = (p3(&old), p3(&o.p));
                 self.index.relocate(id, &old3, &new3);
             }
             None => {
                 self.index.insert(self.obstacles.len() as u32, &p3(&p));
-                self.obstacles.push(Obstacle {
-                    p,
-                    radius_m,
-                    hits: 1,
-                });
+                self.obstacles.push(Obstacle { p, radius_m, hits });
             }
         }
         self.max_radius_m = self.max_radius_m.max(radius_m);
         true
     }
 
-    /// Calls `visit` for every obstacle within `radius_m` of `p` (centre distance).
+    /// Calls `visit` for every confirmed obstacle (at least `min_hits` detections) within
+    /// `radius_m` of `p` (centre distance).
     pub fn for_each_near(&self, p: Point2<f64>, radius_m: f64, mut visit: impl FnMut(&Obstacle)) {
+        let min_hits = self.config.min_hits;
         self.index.for_each_near(&p3(&p), radius_m, |id| {
             let o = &self.obstacles[id as usize];
-            if (o.p - p).norm() <= radius_m {
+            if o.hits >= min_hits && (o.p - p).norm() <= radius_m {
                 visit(o);
             }
         });
@@ -152,6 +154,7 @@ mod tests {
         assert_eq!(o.hits, 2);
         assert!((o.p.x - 1.05).abs() < 1e-12 && (o.radius_m - 0.12).abs() < 1e-12);
         assert!(m.add_point(Point2::new(3.0, 0.0)));
+        assert!(m.add_rock(Point2::new(2.0, 1.0), 0.2));
         let mut seen = 0;
         m.for_each_near(Point2::new(2.0, 0.5), 1.5, |_| seen += 1);
         assert_eq!(seen, 2);
