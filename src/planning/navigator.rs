@@ -373,7 +373,7 @@ mod tests {
             t += 0.05;
         }
         assert!(nav.counts().0 >= 2, "{:?}", nav.counts());
-        assert!(min_d > 0.62 + 0.3 - 0.05, "{min_d}");
+        assert!(min_d > 0.65 + 0.3 - 0.05, "{min_d}");
     }
 
     #[test]

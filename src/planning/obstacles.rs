@@ -16,6 +16,9 @@ pub struct ObstacleConfig {
     pub radius_tolerance: f64,
     /// Detections closer than this to a remembered obstacle update it, metres.
     pub merge_radius_m: f64,
+    /// Smallest weight of a new detection in an obstacle's position (the rest on the
+    /// previous estimate).
+    pub recent_weight: f64,
     /// A rock counts once detected this many times (spurious detections rarely repeat);
     /// lander points count at once.
     pub min_hits: u32,
@@ -28,6 +31,7 @@ impl Default for ObstacleConfig {
             radius_tolerance: 0.85,
             merge_radius_m: 0.3,
             min_hits: 2,
+            recent_weight: 0.4,
         }
     }
 }
@@ -109,8 +113,12 @@ impl ObstacleMemory {
             Some((id, _)) => {
                 let o = &mut self.obstacles[id as usize];
                 let old = o.p;
+                // running mean, but never weighting the newest detection below
+                // `recent_weight`: odometry drifts, and the latest detection was made in the
+                // frame the rover is driving in now
                 let n = f64::from(o.hits);
-                o.p = Point2::from((old.coords * n + p.coords) / (n + 1.0));
+                let w = (1.0 / (n + 1.0)).max(self.config.recent_weight);
+                o.p = Point2::from(old.coords + (p.coords - old.coords) * w);
                 o.hits += hits;
                 o.radius_m = o.radius_m.max(radius_m);
                 let (old3, new3) = (p3(&old), p3(&o.p));
@@ -153,6 +161,10 @@ mod tests {
         let o = m.obstacles()[0];
         assert_eq!(o.hits, 2);
         assert!((o.p.x - 1.05).abs() < 1e-12 && (o.radius_m - 0.12).abs() < 1e-12);
+        // later detections weigh at least `recent_weight`
+        m.add_rock(Point2::new(1.05, 1.0), 0.1);
+        m.add_rock(Point2::new(1.3, 1.0), 0.1);
+        assert!((m.obstacles()[0].p.x - 1.15).abs() < 1e-12);
         assert!(m.add_point(Point2::new(3.0, 0.0)));
         assert!(m.add_rock(Point2::new(2.0, 1.0), 0.2));
         let mut seen = 0;
