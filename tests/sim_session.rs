@@ -179,3 +179,46 @@ fn cli_sim_session_prints_a_summary() {
     assert!(v["realtime_factor"].as_f64().unwrap() > 1.0);
     assert!(v["frames"].as_u64().unwrap() == 21);
 }
+
+#[test]
+fn a_lost_session_drives_safely_and_knows_its_frame() {
+    let moon = Moon::generate(&MoonConfig::default(), 6).unwrap();
+    let (x, y) = moon.nearest_clear_position(-6.0, 5.0, 1.0, 0.08);
+    let config = SessionConfig {
+        duration_s: 180.0,
+        start: [x, y, 0.3],
+        // believes it is 1.5 m and 25° off
+        initial_guess: Some([x + 1.2, y - 0.9, 0.3 + 25f64.to_radians()]),
+        ..SessionConfig::default()
+    };
+    let log = run_session(&moon, &config, 6).unwrap();
+    let s = log.summary();
+    assert_eq!(s.collisions, 0, "{s:?}");
+    assert_eq!(s.out_of_bounds_ticks, 0);
+    assert!(s.distance_m > 20.0, "{s:?}");
+    // detections in the session frame, mapped with the true world_from_session, land near
+    // the rocks they came from (up to drift and stereo noise)
+    let world_from_session = log.world_from_session();
+    let (_, _, yaw) = world_from_session.rotation.euler_angles();
+    assert!((yaw + 25f64.to_radians()).abs() < 0.01);
+    let set = log.detection_set("lost", 0.0, 30.0);
+    let mut errors: Vec<f64> = Vec::new();
+    for (d, f) in set.detections.iter().zip(
+        log.frames
+            .iter()
+            .filter(|f| f.time_s < 30.0)
+            .flat_map(|f| f.boulders.iter()),
+    ) {
+        if let Some(i) = f.rock {
+            let p = world_from_session * d.p_world;
+            errors.push((p - moon.rocks()[i].center).norm());
+        }
+    }
+    errors.sort_by(f64::total_cmp);
+    assert!(!errors.is_empty());
+    assert!(
+        errors[errors.len() / 2] < 0.15,
+        "median {}",
+        errors[errors.len() / 2]
+    );
+}
