@@ -1,6 +1,6 @@
 //! Arc sampling: each control cycle, a fan of constant-curvature arcs (fixed speed, yaw rates
 //! evenly spread over ±`max_yaw_rate_rps`, `horizon_s` long) is checked for collisions with
-//! parry2d (each arc a `Polyline`, each remembered obstacle a point that must stay
+//! parry2d (each arc a chain of `Segment`s, each remembered obstacle a point that must stay
 //! `clearance_m` + its radius away, the lander a `Cuboid`), and the free arc whose end —
 //! taken where the arc has covered the straight-line distance to the goal — lies nearest the
 //! goal wins.
@@ -15,7 +15,7 @@ use crate::planning::Pose2;
 use nalgebra::{Isometry2, Point2, Vector2};
 use parry2d_f64::math::{Pose, Vector};
 use parry2d_f64::query::PointQuery;
-use parry2d_f64::shape::{Cuboid, Polyline};
+use parry2d_f64::shape::{Cuboid, Segment};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the arc fan.
@@ -229,10 +229,17 @@ impl ArcPlannerConfig {
         if near.is_empty() {
             return true;
         }
-        let polyline = Polyline::new(points.iter().map(|p| Vector::new(p.x, p.y)).collect(), None);
+        let segments: Vec<Segment> = points
+            .windows(2)
+            .map(|w| Segment::new(Vector::new(w[0].x, w[0].y), Vector::new(w[1].x, w[1].y)))
+            .collect();
         for o in near {
             let required = self.required_m(o.radius_m);
-            let d = polyline.distance_to_local_point(Vector::new(o.p.x, o.p.y), true);
+            let q = Vector::new(o.p.x, o.p.y);
+            let d = segments
+                .iter()
+                .map(|s| s.distance_to_local_point(q, true))
+                .fold(f64::INFINITY, f64::min);
             if d < required {
                 let now = (o.p - here).norm();
                 // allowed only if it never gets closer than now
