@@ -203,13 +203,10 @@ fn a_lost_session_drives_safely_and_knows_its_frame() {
     assert!((yaw + 25f64.to_radians()).abs() < 0.01);
     let set = log.detection_set("lost", 0.0, 30.0);
     let mut errors: Vec<f64> = Vec::new();
-    for (d, f) in set.detections.iter().zip(
-        log.frames
-            .iter()
-            .filter(|f| f.time_s < 30.0)
-            .flat_map(|f| f.boulders.iter()),
-    ) {
-        if let Some(i) = f.rock {
+    let truth = log.detection_truth(0.0, 30.0);
+    assert_eq!(truth.len(), set.detections.len());
+    for (d, rock) in set.detections.iter().zip(truth) {
+        if let Some(i) = rock {
             let p = world_from_session * d.p_world;
             errors.push((p - moon.rocks()[i].center).norm());
         }

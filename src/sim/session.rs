@@ -267,10 +267,20 @@ impl SessionLog {
 
     /// The boulder detections of the frames taken in `[from_s, to_s)`, in the session frame
     /// (estimated poses), as a `DetectionSet` for fusion and relocalization. `frame` of each
-    /// detection is the frame's tick index; `score` is 1 for a true rock, 0 for a spurious
-    /// detection (for evaluation only).
+    /// detection is the frame's tick index, `size_m` the measured diameter; which rock each
+    /// came from is in [`SessionLog::detection_truth`] (same order), not in the set.
     pub fn detection_set(&self, name: &str, from_s: f64, to_s: f64) -> DetectionSet {
         self.detections_with(name, "session", from_s, to_s, |t| t.session_from_rover)
+    }
+
+    /// For each detection of [`SessionLog::detection_set`] over the same window, in the same
+    /// order: the index of the true rock in [`Moon::rocks`], `None` for a spurious one.
+    pub fn detection_truth(&self, from_s: f64, to_s: f64) -> Vec<Option<usize>> {
+        self.frames
+            .iter()
+            .filter(|f| f.time_s >= from_s && f.time_s < to_s && f.tick < self.ticks.len())
+            .flat_map(|f| f.boulders.iter().map(|b| b.rock))
+            .collect()
     }
 
     /// The same detections placed with the *true* poses, world frame (for evaluation).
@@ -303,7 +313,7 @@ impl SessionLog {
                     p_world: x_from_rover * b.p_rover,
                     rover_position: Some(rover),
                     size_m: Some(2.0 * b.radius_m),
-                    score: Some(if b.rock.is_some() { 1.0 } else { 0.0 }),
+                    score: None,
                 });
             }
         }
