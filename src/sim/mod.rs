@@ -7,7 +7,8 @@
 //!   its geometry);
 //! - [`sensors`]: stereo boulder detections and ground points ([`stereo_noise`]),
 //!   [`visual_odometry`] and the IMU's gravity direction;
-//! - [`session`]: one driving session with the planner ([`crate::planning`]), logged.
+//! - [`session`]: one driving session with the planner ([`crate::planning`]), logged in a
+//!   [`session_log::SessionLog`].
 
 pub mod boulder_field;
 pub mod crater;
@@ -16,6 +17,7 @@ pub mod moon;
 pub mod rover;
 pub mod sensors;
 pub mod session;
+pub mod session_log;
 pub mod stereo_noise;
 pub mod value_noise;
 pub mod visual_odometry;
