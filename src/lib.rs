@@ -20,6 +20,7 @@ pub mod landmarks;
 pub mod mapping;
 pub mod merge;
 pub mod perception;
+pub mod planning;
 pub mod relocalize;
 pub mod sim;
 pub mod spatial;

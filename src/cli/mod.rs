@@ -9,6 +9,7 @@ mod graph;
 mod grid;
 mod map;
 mod relocalize;
+mod sim;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -54,6 +55,9 @@ pub enum Command {
     /// LAC height / rock grids: build the rock map from real detections, score a grid.
     #[command(subcommand)]
     Grid(grid::GridCommand),
+    /// Simulation on the synthetic moon.
+    #[command(subcommand)]
+    Sim(sim::SimCommand),
 }
 
 /// Run a parsed command line; returns the exit code.
@@ -69,6 +73,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Graph(args) => graph::run(&args),
         Command::Grid(cmd) => grid::run(&cmd),
         Command::Detect(args) => detect::run(&args),
+        Command::Sim(cmd) => sim::run(&cmd),
     }
 }
 

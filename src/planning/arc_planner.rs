@@ -1,0 +1,385 @@
+//! Arc sampling: each control cycle, a fan of constant-curvature arcs (fixed speed, yaw rates
+//! evenly spread over ±`max_yaw_rate_rps`, `horizon_s` long) is checked for collisions with
+//! parry2d (each arc a chain of `Segment`s, each remembered obstacle a point that must stay
+//! `clearance_m` + its radius away, the lander a `Cuboid`), and the free arc whose end —
+//! taken where the arc has covered the straight-line distance to the goal — lies nearest the
+//! goal wins.
+//!
+//! An arc that starts inside an obstacle's clearance (a rock detected late) is still allowed
+//! if it never gets closer to that obstacle than the rover already is, so the rover can
+//! always move away.
+
+use crate::planning::obstacles::ObstacleMemory;
+use crate::planning::visibility::SeenGrid;
+use crate::planning::Pose2;
+use nalgebra::{Isometry2, Point2, Vector2};
+use parry2d_f64::math::{Pose, Vector};
+use parry2d_f64::query::PointQuery;
+use parry2d_f64::shape::{Cuboid, Segment};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the arc fan.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ArcPlannerConfig {
+    /// Number of arcs (odd, so that one goes straight).
+    pub arcs: usize,
+    /// Largest |yaw rate| of an arc, rad/s.
+    pub max_yaw_rate_rps: f64,
+    /// Arc duration, seconds.
+    pub horizon_s: f64,
+    /// Forward speed along every arc, m/s.
+    pub speed_mps: f64,
+    /// Time between the points an arc is checked at, seconds.
+    pub sample_dt_s: f64,
+    /// Distance kept between the rover's centre and an obstacle's centre, metres (the
+    /// "rover radius" of the LAC planners).
+    pub clearance_m: f64,
+    /// For large rocks, at least this much is kept between the rover's centre and the rock's
+    /// edge: the footprint's radius plus a margin, metres.
+    pub body_clearance_m: f64,
+    /// Arcs must stay within |x|, |y| ≤ this in the nav frame, metres.
+    pub site_half_extent_m: f64,
+    /// Lateral offset of the extra seen-ground checks beside each arc point, metres.
+    pub unseen_check_offset_m: f64,
+    /// Arc points closer than this to the rover skip the seen-ground check, metres.
+    pub known_radius_m: f64,
+}
+
+impl Default for ArcPlannerConfig {
+    fn default() -> Self {
+        Self {
+            arcs: 41,
+            max_yaw_rate_rps: 0.8,
+            horizon_s: 8.0,
+            speed_mps: 0.4,
+            sample_dt_s: 0.25,
+            clearance_m: 0.75,
+            body_clearance_m: 0.65,
+            site_half_extent_m: 19.0,
+            unseen_check_offset_m: 0.6,
+            known_radius_m: 1.0,
+        }
+    }
+}
+
+/// The lander as the planner sees it: a box in the session frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LanderBox {
+    /// Pose of the lander's centre in the session frame.
+    pub session_from_lander: Isometry2<f64>,
+    /// Half-width in x and y, metres.
+    pub half_extent_m: f64,
+}
+
+/// The chosen arc.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArcChoice {
+    /// Forward speed, m/s.
+    pub speed_mps: f64,
+    /// Yaw rate, rad/s.
+    pub yaw_rate_rps: f64,
+    /// Distance from the arc's end to the goal, metres.
+    pub goal_distance_m: f64,
+    /// How many arcs were free.
+    pub free_arcs: usize,
+}
+
+/// The pose after `t_s` seconds on the arc (speed `v`, yaw rate `w`) from `start`.
+pub fn arc_pose(start: Pose2, v: f64, w: f64, t_s: f64) -> Pose2 {
+    if w.abs() < 1e-9 {
+        Pose2::new(
+            start.x + v * t_s * start.yaw.cos(),
+            start.y + v * t_s * start.yaw.sin(),
+            start.yaw,
+        )
+    } else {
+        let yaw = start.yaw + w * t_s;
+        Pose2::new(
+            start.x + v / w * (yaw.sin() - start.yaw.sin()),
+            start.y + v / w * (start.yaw.cos() - yaw.cos()),
+            yaw,
+        )
+    }
+}
+
+/// Everything an arc is checked against.
+pub struct Scene<'a> {
+    /// Remembered obstacles, session frame.
+    pub obstacles: &'a ObstacleMemory,
+    /// The lander, if known.
+    pub lander: Option<LanderBox>,
+    /// Maps session-frame points to the nav frame (for the site bounds).
+    pub nav_from_session: Isometry2<f64>,
+    /// Ground seen by the cameras; when given, arcs must run over seen ground (their
+    /// points and the points `unseen_check_offset_m` to either side).
+    pub seen: Option<&'a SeenGrid>,
+}
+
+impl ArcPlannerConfig {
+    /// Yaw rate of arc `k`.
+    pub fn yaw_rate(&self, k: usize) -> f64 {
+        if self.arcs <= 1 {
+            0.0
+        } else {
+            -self.max_yaw_rate_rps + 2.0 * self.max_yaw_rate_rps * k as f64 / (self.arcs - 1) as f64
+        }
+    }
+
+    /// Distance to keep between the rover's centre and the centre of an obstacle of
+    /// `radius_m`: `max(clearance, body_clearance + radius)`.
+    pub fn required_m(&self, radius_m: f64) -> f64 {
+        self.clearance_m.max(self.body_clearance_m + radius_m)
+    }
+
+    /// Whether driving `speed_mps` at `yaw_rate_rps` from `pose` for the horizon stays clear.
+    pub fn arc_is_free(
+        &self,
+        pose: Pose2,
+        speed_mps: f64,
+        yaw_rate_rps: f64,
+        scene: &Scene,
+    ) -> bool {
+        let steps =
+            ((self.horizon_s / self.sample_dt_s.max(1e-3)).ceil() as usize).clamp(1, 10_000);
+        let points: Vec<Pose2> = (0..=steps)
+            .map(|s| {
+                arc_pose(
+                    pose,
+                    speed_mps,
+                    yaw_rate_rps,
+                    s as f64 * self.horizon_s / steps as f64,
+                )
+            })
+            .collect();
+        self.path_is_free(pose, &points, scene)
+    }
+
+    fn path_is_free(&self, pose: Pose2, points: &[Pose2], scene: &Scene) -> bool {
+        let here = Point2::new(pose.x, pose.y);
+        // site bounds (nav frame)
+        let bound = self.site_half_extent_m;
+        for p in points {
+            let q = scene.nav_from_session * Point2::new(p.x, p.y);
+            if q.x.abs() > bound || q.y.abs() > bound {
+                let q0 = scene.nav_from_session * here;
+                // allowed only while heading back in
+                if q.x.abs().max(q.y.abs()) > q0.x.abs().max(q0.y.abs()) {
+                    return false;
+                }
+            }
+        }
+        // unseen ground
+        if let Some(seen) = scene.seen {
+            let off = self.unseen_check_offset_m;
+            // the rover's surroundings (below the cameras' view while turning on the spot) are
+            // taken as known: it drove there, or started on clear ground
+            for p in points
+                .iter()
+                .filter(|p| (p.x - here.x).hypot(p.y - here.y) > self.known_radius_m)
+            {
+                let (s, c) = p.yaw.sin_cos();
+                if !seen.is_seen(p.x, p.y)
+                    || !seen.is_seen(p.x - s * off, p.y + c * off)
+                    || !seen.is_seen(p.x + s * off, p.y - c * off)
+                {
+                    return false;
+                }
+            }
+        }
+        // lander box
+        if let Some(lander) = scene.lander {
+            let t = lander.session_from_lander.translation.vector;
+            let cuboid = Cuboid::new(Vector::new(lander.half_extent_m, lander.half_extent_m));
+            let pose = Pose::new(
+                Vector::new(t.x, t.y),
+                lander.session_from_lander.rotation.angle(),
+            );
+            let d = |x: f64, y: f64| cuboid.distance_to_point(&pose, Vector::new(x, y), true);
+            let now = d(here.x, here.y);
+            for p in points {
+                let dp = d(p.x, p.y);
+                if dp < self.clearance_m && dp < now - 1e-3 {
+                    return false;
+                }
+            }
+        }
+        // rocks and lander points
+        let (mut lo, mut hi) = (
+            Vector2::new(f64::MAX, f64::MAX),
+            Vector2::new(f64::MIN, f64::MIN),
+        );
+        for p in points {
+            lo = lo.inf(&Vector2::new(p.x, p.y));
+            hi = hi.sup(&Vector2::new(p.x, p.y));
+        }
+        let reach = self.required_m(scene.obstacles.max_radius_m());
+        let centre = Point2::from((lo + hi) / 2.0);
+        let half_diag = (hi - lo).norm() / 2.0;
+        let mut near = Vec::new();
+        scene
+            .obstacles
+            .for_each_near(centre, half_diag + reach, |o| {
+                let r = reach;
+                if o.p.x >= lo.x - r && o.p.x <= hi.x + r && o.p.y >= lo.y - r && o.p.y <= hi.y + r
+                {
+                    near.push(*o);
+                }
+            });
+        if near.is_empty() {
+            return true;
+        }
+        let segments: Vec<Segment> = points
+            .windows(2)
+            .map(|w| Segment::new(Vector::new(w[0].x, w[0].y), Vector::new(w[1].x, w[1].y)))
+            .collect();
+        for o in near {
+            let required = self.required_m(o.radius_m);
+            let q = Vector::new(o.p.x, o.p.y);
+            let d = segments
+                .iter()
+                .map(|s| s.distance_to_local_point(q, true))
+                .fold(f64::INFINITY, f64::min);
+            if d < required {
+                let now = (o.p - here).norm();
+                // allowed only if it never gets closer than now
+                let closest = points
+                    .iter()
+                    .map(|p| (o.p - Point2::new(p.x, p.y)).norm())
+                    .fold(f64::INFINITY, f64::min);
+                if closest < now - 1e-3 {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// The free arc from `pose` whose end lies nearest `goal` (session frame), if any.
+    pub fn choose(&self, pose: Pose2, goal: Point2<f64>, scene: &Scene) -> Option<ArcChoice> {
+        let v = self.speed_mps;
+        let goal_dist = (goal - Point2::new(pose.x, pose.y)).norm();
+        let t_end = if v > 0.0 {
+            (goal_dist / v).min(self.horizon_s)
+        } else {
+            self.horizon_s
+        };
+        let mut best: Option<ArcChoice> = None;
+        let mut free = 0;
+        for k in 0..self.arcs.max(1) {
+            let w = self.yaw_rate(k);
+            if !self.arc_is_free(pose, v, w, scene) {
+                continue;
+            }
+            free += 1;
+            let end = arc_pose(pose, v, w, t_end);
+            let d = (goal - Point2::new(end.x, end.y)).norm();
+            if best.is_none_or(|b| d < b.goal_distance_m) {
+                best = Some(ArcChoice {
+                    speed_mps: v,
+                    yaw_rate_rps: w,
+                    goal_distance_m: d,
+                    free_arcs: 0,
+                });
+            }
+        }
+        best.map(|b| ArcChoice {
+            free_arcs: free,
+            ..b
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planning::obstacles::ObstacleConfig;
+
+    fn scene(obstacles: &ObstacleMemory) -> Scene<'_> {
+        Scene {
+            obstacles,
+            lander: None,
+            nav_from_session: Isometry2::identity(),
+            seen: None,
+        }
+    }
+
+    #[test]
+    fn goes_straight_to_a_goal_ahead_and_turns_toward_one_aside() {
+        let c = ArcPlannerConfig::default();
+        let m = ObstacleMemory::new(&ObstacleConfig::default());
+        let s = scene(&m);
+        let a = c
+            .choose(Pose2::new(0.0, 0.0, 0.0), Point2::new(5.0, 0.0), &s)
+            .unwrap();
+        assert_eq!(a.yaw_rate_rps, 0.0);
+        assert_eq!(a.free_arcs, 41);
+        let b = c
+            .choose(Pose2::new(0.0, 0.0, 0.0), Point2::new(2.0, 2.0), &s)
+            .unwrap();
+        assert!(b.yaw_rate_rps > 0.15, "{b:?}");
+    }
+
+    #[test]
+    fn avoids_a_rock_in_the_way() {
+        let c = ArcPlannerConfig::default();
+        let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+        m.add_rock(Point2::new(2.0, 0.0), 0.2);
+        m.add_rock(Point2::new(2.0, 0.0), 0.2);
+        let s = scene(&m);
+        let a = c
+            .choose(Pose2::new(0.0, 0.0, 0.0), Point2::new(5.0, 0.0), &s)
+            .unwrap();
+        assert!(a.yaw_rate_rps.abs() > 0.0);
+        assert!(c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, a.yaw_rate_rps, &s));
+        assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));
+        // every point of the chosen arc keeps clear
+        for i in 0..=32 {
+            let p = arc_pose(Pose2::default(), 0.4, a.yaw_rate_rps, i as f64 * 0.25);
+            assert!((Point2::new(p.x, p.y) - Point2::new(2.0, 0.0)).norm() >= 0.85 - 1e-9);
+        }
+    }
+
+    #[test]
+    fn avoids_the_lander_and_site_edge() {
+        let c = ArcPlannerConfig::default();
+        let m = ObstacleMemory::new(&ObstacleConfig::default());
+        let s = Scene {
+            obstacles: &m,
+            lander: Some(LanderBox {
+                session_from_lander: Isometry2::identity(),
+                half_extent_m: 1.5,
+            }),
+            nav_from_session: Isometry2::identity(),
+            seen: None,
+        };
+        assert!(!c.arc_is_free(Pose2::new(-4.0, 0.0, 0.0), 0.4, 0.0, &s));
+        assert!(c.arc_is_free(Pose2::new(-4.0, 0.0, std::f64::consts::PI), 0.4, 0.0, &s));
+        assert!(!c.arc_is_free(Pose2::new(17.0, 5.0, 0.0), 0.4, 0.0, &s));
+    }
+
+    #[test]
+    fn unseen_ground_blocks() {
+        let c = ArcPlannerConfig::default();
+        let m = ObstacleMemory::new(&ObstacleConfig::default());
+        let mut seen = SeenGrid::new(0.25);
+        seen.mark_view(Pose2::new(0.0, 0.0, 0.0), 0.6, 0.0, 6.0);
+        let s = Scene {
+            seen: Some(&seen),
+            ..scene(&m)
+        };
+        assert!(c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));
+        assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.4, &s));
+    }
+
+    #[test]
+    fn can_back_away_from_a_late_rock() {
+        let c = ArcPlannerConfig::default();
+        let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+        m.add_rock(Point2::new(0.6, 0.0), 0.1);
+        m.add_rock(Point2::new(0.6, 0.0), 0.1);
+        let s = scene(&m);
+        assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));
+        assert!(c.arc_is_free(Pose2::new(0.0, 0.0, std::f64::consts::PI), 0.4, 0.0, &s));
+    }
+}

@@ -1,0 +1,415 @@
+//! The navigator: follows the waypoint list with the arc planner, turning on the spot when
+//! the waypoint is far off the heading, and backing up (then turning away) when no arc is
+//! free or the rover stops making progress. Waypoints it cannot reach in time, or that sit
+//! inside an obstacle's clearance, are skipped; when the list runs out it is driven again in
+//! reverse (revisiting mapped ground).
+
+use crate::planning::arc_planner::{ArcPlannerConfig, LanderBox, Scene};
+use crate::planning::obstacles::ObstacleMemory;
+use crate::planning::visibility::SeenGrid;
+use crate::planning::Pose2;
+use crate::sim::rover::{wrap_angle, Command};
+use nalgebra::{Isometry2, Point2, Vector2};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the navigator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NavigatorConfig {
+    /// The arc fan.
+    pub arcs: ArcPlannerConfig,
+    /// A waypoint is reached within this distance, metres.
+    pub waypoint_reached_m: f64,
+    /// Turn on the spot when the waypoint's bearing is off by more than this, radians.
+    pub point_turn_threshold_rad: f64,
+    /// Yaw rate of a point turn, rad/s.
+    pub point_turn_rate_rps: f64,
+    /// Progress is checked over this window, seconds.
+    pub stall_window_s: f64,
+    /// Less progress toward the waypoint than this over the window is a stall, metres.
+    pub stall_progress_m: f64,
+    /// Reverse speed of the backup manoeuvre, m/s.
+    pub backup_speed_mps: f64,
+    /// How long to reverse, seconds.
+    pub backup_duration_s: f64,
+    /// After a scan found a free arc, keep driving arcs (no point turn toward the goal) for
+    /// this long, seconds.
+    pub commit_after_scan_s: f64,
+    /// Treat ground the cameras have not seen as blocked.
+    pub require_seen_ground: bool,
+    /// Skip the waypoint after this many backups on the way to it.
+    pub backups_per_waypoint: usize,
+    /// Give up on a waypoint after this long, seconds.
+    pub waypoint_timeout_s: f64,
+    /// Half-width of the lander box, metres.
+    pub lander_half_extent_m: f64,
+}
+
+impl Default for NavigatorConfig {
+    fn default() -> Self {
+        Self {
+            arcs: ArcPlannerConfig::default(),
+            waypoint_reached_m: 1.0,
+            point_turn_threshold_rad: 1.6,
+            point_turn_rate_rps: 0.7,
+            stall_window_s: 8.0,
+            stall_progress_m: 0.2,
+            backup_speed_mps: 0.2,
+            backup_duration_s: 2.0,
+            backups_per_waypoint: 3,
+            require_seen_ground: true,
+            commit_after_scan_s: 4.0,
+            waypoint_timeout_s: 30.0,
+            lander_half_extent_m: crate::sim::ipex::LANDER_HALF_EXTENT_M,
+        }
+    }
+}
+
+/// What the navigator is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum NavMode {
+    /// Following an arc.
+    Drive,
+    /// Turning on the spot toward the waypoint.
+    PointTurn,
+    /// Reversing out of a dead end.
+    Backup,
+    /// Turning on the spot to look around (at the start, and when no arc is free), until
+    /// an arc is free or a full turn is done.
+    Scan,
+}
+
+/// Waypoint follower with the arc planner.
+#[derive(Clone, Debug)]
+pub struct Navigator {
+    config: NavigatorConfig,
+    waypoints: Vec<Point2<f64>>,
+    next: usize,
+    nav_from_session: Isometry2<f64>,
+    mode: NavMode,
+    mode_until_s: f64,
+    turn_sign: f64,
+    initial_scan: bool,
+    in_initial_scan: bool,
+    commit_until_s: f64,
+    waypoint_since_s: f64,
+    waypoint_backups: usize,
+    progress: Vec<(f64, f64)>,
+    reached: usize,
+    skipped: usize,
+    backups: usize,
+}
+
+impl Navigator {
+    /// A navigator for `waypoints` (nav frame), with the session frame taken to be the nav
+    /// frame until told otherwise.
+    pub fn new(config: &NavigatorConfig, waypoints: Vec<Vector2<f64>>) -> Self {
+        Self {
+            config: config.clone(),
+            waypoints: waypoints.into_iter().map(Point2::from).collect(),
+            next: 0,
+            nav_from_session: Isometry2::identity(),
+            mode: NavMode::Scan,
+            mode_until_s: 0.0,
+            turn_sign: 1.0,
+            initial_scan: true,
+            in_initial_scan: false,
+            commit_until_s: 0.0,
+            waypoint_since_s: 0.0,
+            waypoint_backups: 0,
+            progress: Vec::new(),
+            reached: 0,
+            skipped: 0,
+            backups: 0,
+        }
+    }
+
+    /// Update the believed nav-from-session transform (e.g. after a relocalization).
+    pub fn set_nav_from_session(&mut self, nav_from_session: Isometry2<f64>) {
+        self.nav_from_session = nav_from_session;
+    }
+
+    /// The current mode.
+    pub fn mode(&self) -> NavMode {
+        self.mode
+    }
+
+    /// (waypoints reached, waypoints skipped, backup manoeuvres) so far.
+    pub fn counts(&self) -> (usize, usize, usize) {
+        (self.reached, self.skipped, self.backups)
+    }
+
+    /// The waypoint being driven to, nav frame.
+    pub fn current_waypoint(&self) -> Option<Point2<f64>> {
+        self.waypoints.get(self.next).copied()
+    }
+
+    fn advance(&mut self, time_s: f64, reached: bool) {
+        if reached {
+            self.reached += 1;
+        } else {
+            self.skipped += 1;
+        }
+        self.next += 1;
+        if self.next >= self.waypoints.len() {
+            // drive the pattern again, backwards: revisit mapped ground
+            self.waypoints.reverse();
+            self.next = 1.min(self.waypoints.len().saturating_sub(1));
+        }
+        self.waypoint_since_s = time_s;
+        self.waypoint_backups = 0;
+        self.progress.clear();
+    }
+
+    /// The command for this control cycle, from the estimated pose (session frame) and the
+    /// remembered obstacles.
+    /// Unseen ground counts as blocked when `seen` is given.
+    pub fn command(
+        &mut self,
+        time_s: f64,
+        pose: Pose2,
+        obstacles: &ObstacleMemory,
+        seen: Option<&SeenGrid>,
+    ) -> Command {
+        let stop = Command::default();
+        if self.waypoints.is_empty() || !pose.x.is_finite() || !pose.y.is_finite() {
+            return stop;
+        }
+        let session_from_nav = self.nav_from_session.inverse();
+        let lander = LanderBox {
+            session_from_lander: session_from_nav,
+            half_extent_m: self.config.lander_half_extent_m,
+        };
+        let scene = Scene {
+            obstacles,
+            lander: Some(lander),
+            nav_from_session: self.nav_from_session,
+            seen: seen.filter(|_| self.config.require_seen_ground),
+        };
+        let here = Point2::new(pose.x, pose.y);
+        // pick the waypoint: skip reached / blocked / timed-out ones
+        for _ in 0..self.waypoints.len() {
+            let goal = session_from_nav * self.waypoints[self.next];
+            let dist = (goal - here).norm();
+            if dist < self.config.waypoint_reached_m {
+                self.advance(time_s, true);
+                continue;
+            }
+            let mut blocked = false;
+            let arcs = &self.config.arcs;
+            let clearance = arcs.clearance_m;
+            obstacles.for_each_near(goal, arcs.required_m(obstacles.max_radius_m()), |o| {
+                blocked |= (o.p - goal).norm() < arcs.required_m(o.radius_m);
+            });
+            let nav_goal = self.waypoints[self.next];
+            let h = self.config.lander_half_extent_m + clearance;
+            blocked |= nav_goal.x.abs() < h && nav_goal.y.abs() < h;
+            if blocked
+                || time_s - self.waypoint_since_s > self.config.waypoint_timeout_s
+                || self.waypoint_backups >= self.config.backups_per_waypoint
+            {
+                self.advance(time_s, false);
+                continue;
+            }
+            break;
+        }
+        let goal = session_from_nav * self.waypoints[self.next];
+        let to_goal = goal - here;
+        let dist = to_goal.norm();
+        let bearing = wrap_angle(to_goal.y.atan2(to_goal.x) - pose.yaw);
+        let full_turn_s = 2.0 * std::f64::consts::PI / self.config.point_turn_rate_rps.max(0.05);
+        if self.initial_scan {
+            // look all around before the first move
+            self.initial_scan = false;
+            self.in_initial_scan = true;
+            self.mode = NavMode::Scan;
+            self.mode_until_s = time_s + full_turn_s;
+            self.turn_sign = if bearing >= 0.0 { 1.0 } else { -1.0 };
+        }
+        // manoeuvres in progress
+        if self.mode == NavMode::Backup {
+            let back = Pose2::new(pose.x, pose.y, pose.yaw + std::f64::consts::PI);
+            let speed = self.config.backup_speed_mps;
+            let check = ArcPlannerConfig {
+                horizon_s: 2.0,
+                ..self.config.arcs.clone()
+            };
+            let back_scene = Scene {
+                seen: None,
+                ..scene
+            };
+            if time_s < self.mode_until_s && check.arc_is_free(back, speed, 0.0, &back_scene) {
+                return Command {
+                    speed_mps: -speed,
+                    yaw_rate_rps: 0.0,
+                };
+            }
+            self.mode = NavMode::Scan;
+            self.mode_until_s = time_s + full_turn_s;
+        }
+        if self.mode == NavMode::Scan {
+            let initial = self.in_initial_scan;
+            if time_s < self.mode_until_s {
+                // leave as soon as an arc is free (except during the first look around)
+                if !initial || time_s + 1e-9 >= self.mode_until_s {
+                    if let Some(arc) = self.config.arcs.choose(pose, goal, &scene) {
+                        self.mode = NavMode::Drive;
+                        self.in_initial_scan = false;
+                        // follow the way out for a while before turning back to the goal
+                        self.commit_until_s = time_s + self.config.commit_after_scan_s;
+                        self.progress.clear();
+                        return Command {
+                            speed_mps: arc.speed_mps,
+                            yaw_rate_rps: arc.yaw_rate_rps,
+                        };
+                    }
+                }
+                return Command {
+                    speed_mps: 0.0,
+                    yaw_rate_rps: self.turn_sign * self.config.point_turn_rate_rps,
+                };
+            }
+            if !initial {
+                return self.start_backup(time_s);
+            }
+            self.in_initial_scan = false;
+            self.mode = NavMode::Drive;
+            self.progress.clear();
+        }
+        // stall: no progress over the window
+        self.progress.push((time_s, dist));
+        let window = self.config.stall_window_s;
+        self.progress.retain(|&(t, _)| time_s - t <= window);
+        if let Some(&(t0, d0)) = self.progress.first() {
+            if time_s - t0 >= window * 0.95 && d0 - dist < self.config.stall_progress_m {
+                return self.start_backup(time_s);
+            }
+        }
+        let committed = time_s < self.commit_until_s;
+        if !committed
+            && (bearing.abs() > self.config.point_turn_threshold_rad
+                || (self.mode == NavMode::PointTurn && bearing.abs() > 0.3))
+        {
+            self.mode = NavMode::PointTurn;
+            return Command {
+                speed_mps: 0.0,
+                yaw_rate_rps: bearing.signum() * self.config.point_turn_rate_rps,
+            };
+        }
+        match self.config.arcs.choose(pose, goal, &scene) {
+            Some(arc) => {
+                self.mode = NavMode::Drive;
+                Command {
+                    speed_mps: arc.speed_mps,
+                    yaw_rate_rps: arc.yaw_rate_rps,
+                }
+            }
+            None => {
+                // nothing free ahead: look around for a way
+                self.mode = NavMode::Scan;
+                self.mode_until_s = time_s + full_turn_s;
+                self.turn_sign = if bearing >= 0.0 { 1.0 } else { -1.0 };
+                Command {
+                    speed_mps: 0.0,
+                    yaw_rate_rps: self.turn_sign * self.config.point_turn_rate_rps,
+                }
+            }
+        }
+    }
+
+    fn start_backup(&mut self, time_s: f64) -> Command {
+        self.backups += 1;
+        self.waypoint_backups += 1;
+        self.progress.clear();
+        self.mode = NavMode::Backup;
+        self.mode_until_s = time_s + self.config.backup_duration_s;
+        // alternate the turn direction so repeated backups explore both sides
+        self.turn_sign = -self.turn_sign;
+        Command::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planning::obstacles::ObstacleConfig;
+    use crate::sim::rover::{RoverConfig, RoverState};
+
+    fn drive(
+        nav: &mut Navigator,
+        obstacles: &ObstacleMemory,
+        start: RoverState,
+        seconds: f64,
+    ) -> RoverState {
+        let mut s = start;
+        let config = RoverConfig::default();
+        let mut t = 0.0;
+        while t < seconds {
+            let cmd = nav.command(t, Pose2::new(s.x, s.y, s.yaw), obstacles, None);
+            s.step(cmd, &config, 0.05);
+            t += 0.05;
+        }
+        s
+    }
+
+    #[test]
+    fn reaches_waypoints_around_a_rock() {
+        let mut obstacles = ObstacleMemory::new(&ObstacleConfig::default());
+        obstacles.add_rock(Point2::new(6.0, 0.0), 0.3);
+        obstacles.add_rock(Point2::new(6.0, 0.0), 0.3);
+        let mut nav = Navigator::new(
+            &NavigatorConfig::default(),
+            vec![Vector2::new(9.0, 0.0), Vector2::new(9.0, 4.0)],
+        );
+        let start = RoverState::at_rest(3.0, 0.0, 0.0);
+        let mut s = start;
+        let config = RoverConfig::default();
+        let mut t = 0.0;
+        let mut min_d = f64::INFINITY;
+        while t < 40.0 {
+            let cmd = nav.command(t, Pose2::new(s.x, s.y, s.yaw), &obstacles, None);
+            s.step(cmd, &config, 0.05);
+            min_d = min_d.min((s.x - 6.0).hypot(s.y));
+            t += 0.05;
+        }
+        assert!(nav.counts().0 >= 2, "{:?}", nav.counts());
+        assert!(min_d > 0.65 + 0.3 - 0.05, "{min_d}");
+    }
+
+    #[test]
+    fn turns_on_the_spot_for_a_waypoint_behind() {
+        let obstacles = ObstacleMemory::new(&ObstacleConfig::default());
+        let mut nav = Navigator::new(&NavigatorConfig::default(), vec![Vector2::new(-5.0, 3.0)]);
+        let c = nav.command(0.0, Pose2::new(0.0, 3.0, 0.0), &obstacles, None);
+        assert_eq!(c.speed_mps, 0.0);
+        assert!(c.yaw_rate_rps.abs() > 0.0);
+        assert_eq!(nav.mode(), NavMode::Scan);
+        let s = drive(
+            &mut nav,
+            &obstacles,
+            RoverState::at_rest(0.0, 3.0, 0.0),
+            40.0,
+        );
+        assert!(nav.counts().0 >= 1, "{s:?}");
+    }
+
+    #[test]
+    fn backs_up_when_boxed_in() {
+        let mut obstacles = ObstacleMemory::new(&ObstacleConfig::default());
+        for k in 0..13 {
+            let a = -1.2 + 0.2 * k as f64;
+            obstacles.add_rock(Point2::new(1.0 * a.cos(), 1.0 * a.sin()), 0.1);
+            obstacles.add_rock(Point2::new(1.0 * a.cos(), 1.0 * a.sin()), 0.1);
+        }
+        let mut nav = Navigator::new(&NavigatorConfig::default(), vec![Vector2::new(8.0, 0.0)]);
+        // the first look around, then a second full turn finds nothing free: back up
+        let mut t = 0.0;
+        while nav.mode() != NavMode::Backup && t < 30.0 {
+            let _ = nav.command(t, Pose2::new(0.0, 0.0, 0.0), &obstacles, None);
+            t += 0.05;
+        }
+        assert_eq!(nav.mode(), NavMode::Backup);
+        let c = nav.command(t, Pose2::new(0.0, 0.0, 0.0), &obstacles, None);
+        assert!(c.speed_mps < 0.0);
+    }
+}

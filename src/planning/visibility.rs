@@ -1,0 +1,114 @@
+//! Which ground the cameras have seen: a set of small square cells marked when they fall in a
+//! camera's view cone. The arc planner treats unseen ground as possibly blocked, because the
+//! IPEX's cameras look only forward and backward and a rock beside the rover is invisible.
+
+use crate::planning::Pose2;
+use std::collections::HashSet;
+
+/// Seen cells of the horizontal plane (session frame).
+#[derive(Clone, Debug)]
+pub struct SeenGrid {
+    cell_m: f64,
+    cells: HashSet<(i64, i64)>,
+}
+
+impl SeenGrid {
+    /// Empty, with square cells of `cell_m` metres.
+    pub fn new(cell_m: f64) -> Self {
+        Self {
+            cell_m: if cell_m.is_finite() && cell_m > 0.01 {
+                cell_m
+            } else {
+                0.25
+            },
+            cells: HashSet::new(),
+        }
+    }
+
+    fn key(&self, x: f64, y: f64) -> (i64, i64) {
+        (
+            (x / self.cell_m).floor() as i64,
+            (y / self.cell_m).floor() as i64,
+        )
+    }
+
+    /// Number of seen cells.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Whether nothing has been seen.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// Whether the cell holding (x, y) has been seen.
+    pub fn is_seen(&self, x: f64, y: f64) -> bool {
+        x.is_finite() && y.is_finite() && self.cells.contains(&self.key(x, y))
+    }
+
+    /// Mark the cells whose centres lie in the view cone of a camera at `camera` (position
+    /// and viewing direction), within `half_fov_rad` of its axis and `min_m`..`max_m` of it.
+    pub fn mark_view(&mut self, camera: Pose2, half_fov_rad: f64, min_m: f64, max_m: f64) {
+        if !camera.x.is_finite()
+            || !camera.y.is_finite()
+            || !(0.0..=100.0).contains(&max_m)
+            || max_m == 0.0
+        {
+            return;
+        }
+        let (lo, hi) = (
+            self.key(camera.x - max_m, camera.y - max_m),
+            self.key(camera.x + max_m, camera.y + max_m),
+        );
+        let cos_half = half_fov_rad.cos();
+        let (ax, ay) = (camera.yaw.cos(), camera.yaw.sin());
+        for i in lo.0..=hi.0 {
+            for j in lo.1..=hi.1 {
+                let cx = (i as f64 + 0.5) * self.cell_m - camera.x;
+                let cy = (j as f64 + 0.5) * self.cell_m - camera.y;
+                let d = cx.hypot(cy);
+                if d >= min_m && d <= max_m && (cx * ax + cy * ay) >= cos_half * d {
+                    self.cells.insert((i, j));
+                }
+            }
+        }
+    }
+
+    /// Mark every cell within `radius_m` of (x, y) (the ground under the rover).
+    pub fn mark_disc(&mut self, x: f64, y: f64, radius_m: f64) {
+        if !x.is_finite() || !y.is_finite() || !(0.0..=100.0).contains(&radius_m) {
+            return;
+        }
+        let (lo, hi) = (
+            self.key(x - radius_m, y - radius_m),
+            self.key(x + radius_m, y + radius_m),
+        );
+        for i in lo.0..=hi.0 {
+            for j in lo.1..=hi.1 {
+                let cx = (i as f64 + 0.5) * self.cell_m - x;
+                let cy = (j as f64 + 0.5) * self.cell_m - y;
+                if cx.hypot(cy) <= radius_m {
+                    self.cells.insert((i, j));
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cone_marks_ahead_only() {
+        let mut g = SeenGrid::new(0.25);
+        g.mark_view(Pose2::new(0.0, 0.0, 0.0), 35f64.to_radians(), 0.3, 5.0);
+        assert!(g.is_seen(3.0, 0.5));
+        assert!(!g.is_seen(-3.0, 0.0));
+        assert!(!g.is_seen(1.0, 1.5));
+        assert!(!g.is_seen(6.0, 0.0));
+        g.mark_disc(0.0, 0.0, 0.5);
+        assert!(g.is_seen(0.0, 0.3));
+    }
+}

@@ -1,0 +1,131 @@
+//! High-level waypoints in the patterns that worked in the Lunar Autonomy Challenge: a small
+//! loop around the lander first, then square rings growing outward — either one continuous
+//! square spiral or nested square loops — each ring close enough to the previous one that
+//! the cameras see ground they mapped before, so loop closures keep happening.
+
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+/// Which pattern follows the first loop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Pattern {
+    /// One square spiral whose half-side grows by `ring_spacing_m` per turn.
+    Spiral,
+    /// Closed square loops of growing half-side, one after the other.
+    NestedLoops,
+}
+
+/// Parameters of the waypoint pattern (nav frame: the lander at the origin).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WaypointConfig {
+    /// Pattern after the first loop.
+    pub pattern: Pattern,
+    /// Half-side of the first square loop around the lander, metres.
+    pub first_loop_half_side_m: f64,
+    /// Growth of the half-side per ring, metres.
+    pub ring_spacing_m: f64,
+    /// Largest half-side, metres.
+    pub max_half_side_m: f64,
+    /// Distance between consecutive waypoints along a ring, metres.
+    pub waypoint_spacing_m: f64,
+    /// Counter-clockwise if true.
+    pub counter_clockwise: bool,
+}
+
+impl Default for WaypointConfig {
+    fn default() -> Self {
+        Self {
+            pattern: Pattern::Spiral,
+            first_loop_half_side_m: 3.5,
+            ring_spacing_m: 2.0,
+            max_half_side_m: 13.5,
+            waypoint_spacing_m: 1.5,
+            counter_clockwise: true,
+        }
+    }
+}
+
+/// The point at perimeter parameter `t` ∈ [0, 1) of the square of half-side `h`, starting
+/// at angle `start_rad` (the square's boundary point in that direction) and going round.
+fn square_point(h: f64, t: f64, start_rad: f64, ccw: bool) -> Vector2<f64> {
+    let dir = if ccw { 1.0 } else { -1.0 };
+    let angle = start_rad + dir * t * 2.0 * std::f64::consts::PI;
+    let (c, s) = (angle.cos(), angle.sin());
+    // radial projection of the direction onto the square: max-norm scaling
+    let scale = h / c.abs().max(s.abs()).max(1e-12);
+    Vector2::new(c * scale, s * scale)
+}
+
+/// Waypoints for a rover starting at `start` (nav frame): the first loop begins at the
+/// ring point in the start's direction from the lander.
+///
+/// ```
+/// use segloc::planning::waypoints::{waypoints, WaypointConfig};
+/// let w = waypoints(&WaypointConfig::default(), nalgebra::Vector2::new(4.0, 0.0));
+/// assert!(w.len() > 50);
+/// assert!(w.iter().all(|p| p.x.abs() <= 13.5 + 1e-9 && p.y.abs() <= 13.5 + 1e-9));
+/// ```
+pub fn waypoints(config: &WaypointConfig, start: Vector2<f64>) -> Vec<Vector2<f64>> {
+    let start_rad = start.y.atan2(start.x);
+    let spacing = config.waypoint_spacing_m.max(0.1);
+    let h0 = config.first_loop_half_side_m.max(0.5);
+    let h_max = config.max_half_side_m.max(h0);
+    let ring = config.ring_spacing_m.max(0.1);
+    let ccw = config.counter_clockwise;
+    let mut out = Vec::new();
+    let push_ring = |h: f64, grow: f64, out: &mut Vec<Vector2<f64>>| {
+        let perimeter = 8.0 * (h + grow / 2.0);
+        let n = ((perimeter / spacing).ceil() as usize).clamp(4, 100_000);
+        for k in 0..n {
+            let t = k as f64 / n as f64;
+            out.push(square_point(h + grow * t, t, start_rad, ccw));
+        }
+    };
+    push_ring(h0, 0.0, &mut out);
+    let mut h = h0;
+    while h < h_max - 1e-9 {
+        let grow = ring.min(h_max - h);
+        match config.pattern {
+            Pattern::Spiral => push_ring(h, grow, &mut out),
+            Pattern::NestedLoops => push_ring(h + grow, 0.0, &mut out),
+        }
+        h += grow;
+    }
+    push_ring(h_max, 0.0, &mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spiral_grows_and_stays_in_bounds() {
+        let w = waypoints(&WaypointConfig::default(), Vector2::new(0.0, -5.0));
+        let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
+        assert!((r(&w[0]) - 3.5).abs() < 1e-9);
+        assert!((r(w.last().unwrap()) - 13.5).abs() < 0.5);
+        for pair in w.windows(2) {
+            assert!((pair[1] - pair[0]).norm() < 2.5, "{:?}", pair);
+        }
+        // starts in the start's direction
+        assert!(w[0].y < -3.0 && w[0].x.abs() < 1e-9);
+    }
+
+    #[test]
+    fn nested_loops_are_closed_rings() {
+        let config = WaypointConfig {
+            pattern: Pattern::NestedLoops,
+            ..WaypointConfig::default()
+        };
+        let w = waypoints(&config, Vector2::new(1.0, 0.0));
+        let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
+        let rings: Vec<f64> = w.iter().map(r).collect();
+        assert!(rings.iter().all(|h| {
+            [3.5, 5.5, 7.5, 9.5, 11.5, 13.5]
+                .iter()
+                .any(|x| (x - h).abs() < 1e-9)
+        }));
+    }
+}

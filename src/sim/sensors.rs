@@ -1,0 +1,407 @@
+//! The rover's exteroceptive sensors at one instant: boulder detections and ground points
+//! from the front and back stereo pairs, and points on the lander's sides.
+//!
+//! For each camera the rocks within range are taken from the moon's rock grid and culled by
+//! the field of view; a rock is detected when the ray from the camera to the upper part of its
+//! visible face reaches it first (parry3d ray casts against the terrain height field, the
+//! other rocks and the lander), when it spans enough pixels, and when the detector does not
+//! miss it (a miss probability rising with depth). The reported centroid is the centre of the
+//! visible face (pulled `face_bias_fraction` × radius toward the camera) with stereo noise
+//! ([`crate::sim::stereo_noise`]). Spurious detections land on random ground in view.
+//! Ground points are stereo points on whatever the rays through random pixels below the
+//! horizon hit (terrain or rock, the lander excluded), with the same noise.
+
+use crate::sim::ipex::{
+    BACK_LEFT_CAMERA_M, CX_PX, CY_PX, FOCAL_PX, FRONT_LEFT_CAMERA_M, IMAGE_HEIGHT_PX,
+    IMAGE_WIDTH_PX, LANDER_HALF_EXTENT_M,
+};
+use crate::sim::moon::Moon;
+use crate::sim::stereo_noise::StereoNoiseConfig;
+use crate::sim::world_rays::RayTarget;
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Poisson};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the cameras' detections and ground points.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SensorConfig {
+    /// Farthest detected rock (depth along the optical axis), metres.
+    pub max_range_m: f64,
+    /// Nearest detected rock (depth), metres.
+    pub min_range_m: f64,
+    /// Smallest detectable rock, as its radius in pixels.
+    pub min_radius_px: f64,
+    /// Probability of missing a visible rock, at zero depth.
+    pub miss_probability: f64,
+    /// Added miss probability per metre of depth.
+    pub miss_probability_per_m: f64,
+    /// Mean number of spurious detections per camera and frame.
+    pub spurious_per_frame: f64,
+    /// How far the measured centroid sits toward the camera, as a fraction of the radius
+    /// (the segment covers the visible face only).
+    pub face_bias_fraction: f64,
+    /// Relative error (1 σ) of the reported radius.
+    pub radius_error_sigma: f64,
+    /// Stereo noise model.
+    pub stereo: StereoNoiseConfig,
+    /// Ground points per camera and frame (rays through random pixels below the horizon).
+    pub ground_points_per_camera: usize,
+    /// Farthest ground point (depth), metres.
+    pub ground_max_range_m: f64,
+    /// Error (1 σ per axis) of the IMU's gravity direction, radians.
+    pub gravity_sigma_rad: f64,
+    /// Spacing of the points sampled on the lander's sides, metres.
+    pub lander_point_spacing_m: f64,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        Self {
+            max_range_m: 7.0,
+            min_range_m: 0.5,
+            min_radius_px: 3.0,
+            miss_probability: 0.05,
+            miss_probability_per_m: 0.03,
+            spurious_per_frame: 0.2,
+            face_bias_fraction: 1.0 / 3.0,
+            radius_error_sigma: 0.15,
+            stereo: StereoNoiseConfig::default(),
+            ground_points_per_camera: 250,
+            ground_max_range_m: 5.0,
+            gravity_sigma_rad: 0.001,
+            lander_point_spacing_m: 0.3,
+        }
+    }
+}
+
+/// Which stereo pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum CameraId {
+    /// Front pair, looking forward.
+    Front,
+    /// Back pair, looking backward.
+    Back,
+}
+
+/// A stereo pair's reference (left) camera: frame x along the optical axis, y left, z up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Which pair.
+    pub id: CameraId,
+    /// Pose of the camera in the rover frame.
+    pub rover_from_camera: Isometry3<f64>,
+}
+
+/// The front and back stereo pairs of the IPEX rover.
+pub fn cameras() -> [Camera; 2] {
+    let at = |p: [f64; 3], yaw: f64| {
+        Isometry3::from_parts(
+            Translation3::new(p[0], p[1], p[2]),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
+        )
+    };
+    [
+        Camera {
+            id: CameraId::Front,
+            rover_from_camera: at(FRONT_LEFT_CAMERA_M, 0.0),
+        },
+        Camera {
+            id: CameraId::Back,
+            rover_from_camera: at(BACK_LEFT_CAMERA_M, std::f64::consts::PI),
+        },
+    ]
+}
+
+/// Pixel (u, v) of a point in a camera frame (x forward, y left, z up), if in front.
+pub fn project(p_cam: &Vector3<f64>) -> Option<(f64, f64)> {
+    (p_cam.x > 1e-6).then(|| {
+        (
+            CX_PX - FOCAL_PX * p_cam.y / p_cam.x,
+            CY_PX - FOCAL_PX * p_cam.z / p_cam.x,
+        )
+    })
+}
+
+/// Unit ray, camera frame, through pixel (u, v).
+pub fn pixel_ray(u: f64, v: f64) -> Vector3<f64> {
+    Vector3::new(1.0, -(u - CX_PX) / FOCAL_PX, -(v - CY_PX) / FOCAL_PX).normalize()
+}
+
+fn in_image(u: f64, v: f64, margin_px: f64) -> bool {
+    u >= -margin_px
+        && u < IMAGE_WIDTH_PX + margin_px
+        && v >= -margin_px
+        && v < IMAGE_HEIGHT_PX + margin_px
+}
+
+/// One boulder detection.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BoulderObservation {
+    /// Which camera saw it.
+    pub camera: CameraId,
+    /// Measured centroid, rover frame, metres.
+    pub p_rover: Point3<f64>,
+    /// Measured radius, metres.
+    pub radius_m: f64,
+    /// The true rock (index into [`Moon::rocks`]); `None` for a spurious detection.
+    pub rock: Option<usize>,
+}
+
+/// One stereo ground point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroundObservation {
+    /// Which camera measured it.
+    pub camera: CameraId,
+    /// Measured point, rover frame, metres.
+    pub p_rover: Point3<f64>,
+}
+
+/// What the cameras report at one instant.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Observation {
+    /// Boulder detections.
+    pub boulders: Vec<BoulderObservation>,
+    /// Ground points.
+    pub ground: Vec<GroundObservation>,
+    /// Points measured on the lander's sides, rover frame (an obstacle for the planner).
+    pub lander_points_rover: Vec<Point3<f64>>,
+}
+
+/// Observe `moon` from `world_from_rover` with all cameras.
+pub fn observe(
+    moon: &Moon,
+    world_from_rover: &Isometry3<f64>,
+    config: &SensorConfig,
+    rng: &mut ChaCha8Rng,
+) -> Observation {
+    let mut out = Observation::default();
+    let lander_points = lander_side_points(moon, config.lander_point_spacing_m);
+    for camera in cameras() {
+        let world_from_camera = world_from_rover * camera.rover_from_camera;
+        let cam = ViewContext {
+            moon,
+            config,
+            camera,
+            world_from_camera,
+            camera_from_world: world_from_camera.inverse(),
+            origin: Point3::from(world_from_camera.translation.vector),
+        };
+        let candidates = cam.rocks_in_view();
+        cam.detect_rocks(&candidates, rng, &mut out.boulders);
+        cam.spurious(&candidates, rng, &mut out.boulders);
+        cam.ground_points(&candidates, rng, &mut out.ground);
+        cam.lander_points(&lander_points, rng, &mut out.lander_points_rover);
+    }
+    out
+}
+
+struct ViewContext<'a> {
+    moon: &'a Moon,
+    config: &'a SensorConfig,
+    camera: Camera,
+    world_from_camera: Isometry3<f64>,
+    camera_from_world: Isometry3<f64>,
+    origin: Point3<f64>,
+}
+
+impl ViewContext<'_> {
+    /// Rocks that may appear in (or block rays of) this camera: within range and inside the
+    /// image once their radius is allowed for.
+    fn rocks_in_view(&self) -> Vec<usize> {
+        let reach = self.config.max_range_m.max(self.config.ground_max_range_m)
+            + self.moon.max_rock_radius_m();
+        let mut out = Vec::new();
+        self.moon
+            .for_each_rock_near(self.origin.x, self.origin.y, reach, |i, rock| {
+                let p = self.camera_from_world * rock.center;
+                if p.x < -rock.radius_m {
+                    return;
+                }
+                let depth = p.x.max(rock.radius_m);
+                let margin = FOCAL_PX * rock.radius_m / depth * 1.5 + 2.0;
+                let q = Vector3::new(depth, p.y, p.z);
+                if project(&q).is_some_and(|(u, v)| in_image(u, v, margin)) {
+                    out.push(i);
+                }
+            });
+        out
+    }
+
+    fn to_rover(&self, p_cam: &Vector3<f64>) -> Point3<f64> {
+        self.camera.rover_from_camera * Point3::from(*p_cam)
+    }
+
+    fn detect_rocks(
+        &self,
+        candidates: &[usize],
+        rng: &mut ChaCha8Rng,
+        out: &mut Vec<BoulderObservation>,
+    ) {
+        let c = self.config;
+        for &i in candidates {
+            let rock = self.moon.rocks()[i];
+            let p = self.camera_from_world * rock.center;
+            let depth = p.x;
+            if depth < c.min_range_m || depth > c.max_range_m {
+                continue;
+            }
+            if FOCAL_PX * rock.radius_m / depth < c.min_radius_px {
+                continue;
+            }
+            if !project(&p.coords).is_some_and(|(u, v)| in_image(u, v, 0.0)) {
+                continue;
+            }
+            // line of sight to the upper half of the face turned to the camera
+            let target = rock.center + Vector3::new(0.0, 0.0, 0.5 * rock.radius_m);
+            let to = target - self.origin;
+            let dist = to.norm();
+            let dir = to / dist;
+            let hit =
+                self.moon
+                    .cast_ray(&self.origin, &dir, dist + rock.radius_m, Some(candidates));
+            if hit.is_none_or(|h| h.target != RayTarget::Rock(i)) {
+                continue;
+            }
+            let miss = (c.miss_probability + c.miss_probability_per_m * depth).clamp(0.0, 1.0);
+            if rng.random::<f64>() < miss {
+                continue;
+            }
+            let toward_camera = (self.origin - rock.center).normalize();
+            let face = rock.center + toward_camera * (c.face_bias_fraction * rock.radius_m);
+            let p_cam = self.camera_from_world * face;
+            let measured = c.stereo.perturb(&p_cam.coords, rng);
+            let radius_m = rock.radius_m * (1.0 + c.radius_error_sigma * gaussian(rng)).max(0.2);
+            out.push(BoulderObservation {
+                camera: self.camera.id,
+                p_rover: self.to_rover(&measured),
+                radius_m,
+                rock: Some(i),
+            });
+        }
+    }
+
+    /// A ray through a random pixel below the horizon and what it hits within `max_depth_m`.
+    fn random_ground_ray(
+        &self,
+        candidates: &[usize],
+        max_depth_m: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Option<(Vector3<f64>, RayTarget)> {
+        let u = rng.random_range(0.0..IMAGE_WIDTH_PX);
+        let v = rng.random_range(CY_PX + 1.0..IMAGE_HEIGHT_PX);
+        let ray_cam = pixel_ray(u, v);
+        let dir = self.world_from_camera.rotation * ray_cam;
+        let max_m = max_depth_m / ray_cam.x;
+        let hit = self
+            .moon
+            .cast_ray(&self.origin, &dir, max_m, Some(candidates))?;
+        Some(((self.camera_from_world * hit.point).coords, hit.target))
+    }
+
+    fn spurious(
+        &self,
+        candidates: &[usize],
+        rng: &mut ChaCha8Rng,
+        out: &mut Vec<BoulderObservation>,
+    ) {
+        let c = self.config;
+        let count = match Poisson::new(c.spurious_per_frame) {
+            Ok(p) => p.sample(rng) as usize,
+            Err(_) => 0,
+        };
+        for _ in 0..count {
+            let Some((p_cam, target)) = self.random_ground_ray(candidates, c.max_range_m, rng)
+            else {
+                continue;
+            };
+            if target == RayTarget::Lander || p_cam.x < c.min_range_m {
+                continue;
+            }
+            let radius_m = rng.random_range(0.04..0.15);
+            let lifted = p_cam + Vector3::new(0.0, 0.0, radius_m / 2.0);
+            let measured = c.stereo.perturb(&lifted, rng);
+            out.push(BoulderObservation {
+                camera: self.camera.id,
+                p_rover: self.to_rover(&measured),
+                radius_m,
+                rock: None,
+            });
+        }
+    }
+
+    fn ground_points(
+        &self,
+        candidates: &[usize],
+        rng: &mut ChaCha8Rng,
+        out: &mut Vec<GroundObservation>,
+    ) {
+        let c = self.config;
+        for _ in 0..c.ground_points_per_camera {
+            let Some((p_cam, target)) =
+                self.random_ground_ray(candidates, c.ground_max_range_m, rng)
+            else {
+                continue;
+            };
+            if target == RayTarget::Lander {
+                continue;
+            }
+            let measured = c.stereo.perturb(&p_cam, rng);
+            out.push(GroundObservation {
+                camera: self.camera.id,
+                p_rover: self.to_rover(&measured),
+            });
+        }
+    }
+
+    fn lander_points(
+        &self,
+        points: &[Point3<f64>],
+        rng: &mut ChaCha8Rng,
+        out: &mut Vec<Point3<f64>>,
+    ) {
+        let c = self.config;
+        for q in points {
+            let p = self.camera_from_world * q;
+            if p.x < c.min_range_m || p.x > c.max_range_m {
+                continue;
+            }
+            if !project(&p.coords).is_some_and(|(u, v)| in_image(u, v, 0.0)) {
+                continue;
+            }
+            let to = q - self.origin;
+            let dist = to.norm();
+            let dir = to / dist;
+            let seen = self
+                .moon
+                .cast_ray(&self.origin, &dir, dist + 0.05, Some(&[]))
+                .is_some_and(|h| h.target == RayTarget::Lander && h.distance_m > dist - 0.05);
+            if seen {
+                let measured = c.stereo.perturb(&p.coords, rng);
+                out.push(self.to_rover(&measured));
+            }
+        }
+    }
+}
+
+/// Points on the lander's four sides, 0.3 m above its base, every `spacing_m`.
+fn lander_side_points(moon: &Moon, spacing_m: f64) -> Vec<Point3<f64>> {
+    let h = LANDER_HALF_EXTENT_M;
+    let z = moon.lander_base_m() + 0.3;
+    let n = ((2.0 * h / spacing_m.max(0.05)).ceil() as usize).max(1);
+    let mut out = Vec::with_capacity(4 * n);
+    for k in 0..n {
+        let t = -h + 2.0 * h * k as f64 / n as f64;
+        out.push(Point3::new(t, -h, z));
+        out.push(Point3::new(h, t, z));
+        out.push(Point3::new(-t, h, z));
+        out.push(Point3::new(-h, -t, z));
+    }
+    out
+}
+
+fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+    rand_distr::StandardNormal.sample(rng)
+}

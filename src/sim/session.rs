@@ -1,0 +1,424 @@
+//! One driving session on the synthetic moon, logged for the mission downstream.
+//!
+//! Each 20 Hz tick: the navigator ([`crate::planning::navigator`]) picks a command from the
+//! *estimated* pose and the obstacles it has detected; the rover ([`crate::sim::rover`])
+//! moves on the terrain; visual odometry measures the step
+//! ([`crate::sim::visual_odometry`]) and the estimate is integrated from it, with roll and
+//! pitch taken from the IMU's gravity direction; collisions are checked against the true
+//! world. Once a second (every `frame_period_ticks`) the cameras observe
+//! ([`crate::sim::sensors`]): boulder detections, ground points and lander points, which
+//! also feed the navigator's obstacle memory.
+//!
+//! # Frames
+//! - *world*: the moon's frame, lander at the origin (LAC's frame);
+//! - *rover*: body frame, x forward, y left, z up;
+//! - *session*: the frame of this session's odometry estimate. The estimate starts at the
+//!   initial guess of the start pose (`initial_guess`, the true start when `None`), so for a
+//!   session started at a known pose the session frame is the world frame up to drift, and
+//!   for a lost session it is off by the guess's error; the true `world_from_session` (at
+//!   the start) is [`SessionLog::world_from_session`].
+//!
+//! # Downstream use
+//! - relocalization submaps: [`SessionLog::detection_set`] over a time window (session
+//!   frame, from the estimated poses);
+//! - pose graph: one node per frame or tick with the estimate
+//!   ([`TickRecord::session_from_rover`]) as initial value, odometry factors from
+//!   [`SessionLog::odometry_between`] (or the raw per-tick [`TickRecord::vo_prev_from_cur`]),
+//!   gravity in [`TickRecord::gravity_rover`]; trajectory error against
+//!   [`TickRecord::world_from_rover`];
+//! - height map: [`FrameRecord::ground`] points (rover frame) re-projected with optimised
+//!   poses of [`FrameRecord::tick`];
+//! - rock map: [`FrameRecord::boulders`] likewise;
+//! - ground truth: [`crate::sim::moon::Moon::ground_truth_grid`].
+
+use crate::planning::navigator::{NavMode, Navigator, NavigatorConfig};
+use crate::planning::obstacles::{ObstacleConfig, ObstacleMemory};
+use crate::planning::visibility::SeenGrid;
+use crate::planning::waypoints::{waypoints, WaypointConfig};
+use crate::planning::Pose2;
+use crate::sim::ipex::{footprint_radius_m, LUNAR_GRAVITY_MPS2, SITE_HALF_EXTENT_M, TICK_S};
+use crate::sim::ipex::{CX_PX, FOCAL_PX};
+use crate::sim::moon::Moon;
+use crate::sim::rover::{Command, RoverConfig, RoverState};
+use crate::sim::sensors::{cameras, observe, SensorConfig};
+use crate::sim::visual_odometry::{gravity_in_rover, VisualOdometry, VoConfig};
+use nalgebra::{Isometry2, Isometry3, Point2, Translation3, UnitQuaternion, Vector2, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+pub use crate::sim::session_log::{
+    FrameRecord, Obstruction, SessionLog, SessionSummary, TickRecord,
+};
+
+/// Errors starting a session.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SessionError {
+    /// A configuration value is out of range.
+    #[error("invalid session configuration: {0}")]
+    InvalidConfig(String),
+}
+
+/// A planar pose in the world (or nav) frame: x, y (metres) and yaw (radians).
+pub type PlanarPose = [f64; 3];
+
+/// Parameters of one session.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SessionConfig {
+    /// Simulated duration, seconds.
+    pub duration_s: f64,
+    /// True start pose, world frame: [x, y, yaw].
+    pub start: PlanarPose,
+    /// What the rover believes its start pose is (nav frame); `None`: the truth.
+    pub initial_guess: Option<PlanarPose>,
+    /// Camera frames (detections, ground points) every this many ticks (20 = 1 Hz).
+    pub frame_period_ticks: usize,
+    /// A collision is logged when a rock's edge or the lander comes within this distance of
+    /// the rover's centre, metres (default: the footprint's circumscribed radius, ≈ 0.47 m).
+    pub collision_radius_m: f64,
+    /// Only rocks at least this large count as collisions, metres.
+    pub collision_min_rock_radius_m: f64,
+    /// Drive limits.
+    pub rover: RoverConfig,
+    /// Cameras.
+    pub sensors: SensorConfig,
+    /// Odometry errors.
+    pub vo: VoConfig,
+    /// Navigator and arc planner.
+    pub navigator: NavigatorConfig,
+    /// Which detected rocks are obstacles.
+    pub obstacles: ObstacleConfig,
+    /// Waypoint pattern.
+    pub waypoints: WaypointConfig,
+}
+
+impl Default for SessionConfig {
+    fn default() -> Self {
+        Self {
+            duration_s: 120.0,
+            start: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
+            initial_guess: None,
+            frame_period_ticks: 20,
+            collision_radius_m: footprint_radius_m(),
+            collision_min_rock_radius_m: 0.08,
+            rover: RoverConfig::default(),
+            sensors: SensorConfig::default(),
+            vo: VoConfig::default(),
+            navigator: NavigatorConfig::default(),
+            obstacles: ObstacleConfig::default(),
+            waypoints: WaypointConfig::default(),
+        }
+    }
+}
+
+impl SessionConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), SessionError> {
+        let bad = |m: &str| Err(SessionError::InvalidConfig(m.to_string()));
+        if !(self.duration_s.is_finite() && self.duration_s >= 0.0 && self.duration_s <= 1e6) {
+            return bad("duration_s must be within 0..1e6");
+        }
+        if self.start.iter().any(|v| !v.is_finite())
+            || self
+                .initial_guess
+                .is_some_and(|g| g.iter().any(|v| !v.is_finite()))
+        {
+            return bad("start and initial_guess must be finite");
+        }
+        if self.start[0].abs() > SITE_HALF_EXTENT_M || self.start[1].abs() > SITE_HALF_EXTENT_M {
+            return bad("start must lie within |x|, |y| ≤ 19.5 m");
+        }
+        if self.frame_period_ticks == 0 {
+            return bad("frame_period_ticks must be at least 1");
+        }
+        if !self.collision_radius_m.is_finite() || !self.collision_min_rock_radius_m.is_finite() {
+            return bad("collision radii must be finite");
+        }
+        Ok(())
+    }
+}
+
+/// A session being simulated, one tick at a time (for interleaving relocalization).
+pub struct SessionSim<'a> {
+    moon: &'a Moon,
+    config: SessionConfig,
+    state: RoverState,
+    vo: VisualOdometry,
+    rng: ChaCha8Rng,
+    navigator: Navigator,
+    obstacles: ObstacleMemory,
+    seen: SeenGrid,
+    log: SessionLog,
+    total_ticks: usize,
+    wall: f64,
+}
+
+/// Roll and pitch of the rover from the gravity it measures (rover frame).
+pub fn roll_pitch_from_gravity(g: &Vector3<f64>) -> (f64, f64) {
+    let roll = (-g.y).atan2(-g.z);
+    let pitch = g.x.atan2(g.y.hypot(g.z));
+    (roll, pitch)
+}
+
+impl<'a> SessionSim<'a> {
+    /// Set up a session on `moon` (tick 0 logged: the rover at its start, one camera frame).
+    pub fn new(moon: &'a Moon, config: &SessionConfig, seed: u64) -> Result<Self, SessionError> {
+        config.validate()?;
+        let started = Instant::now();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let vo = VisualOdometry::new(&config.vo, rng.random());
+        let state = RoverState::at_rest(config.start[0], config.start[1], config.start[2]);
+        let guess = config.initial_guess.unwrap_or(config.start);
+        let plan = waypoints(&config.waypoints, Vector2::new(guess[0], guess[1]));
+        let navigator = Navigator::new(&config.navigator, plan);
+        let world_from_rover = state.pose(moon);
+        let gravity_rover = gravity_in_rover(
+            &world_from_rover,
+            LUNAR_GRAVITY_MPS2,
+            config.sensors.gravity_sigma_rad,
+            &mut rng,
+        );
+        let (roll, pitch) = roll_pitch_from_gravity(&gravity_rover);
+        let session_from_rover = Isometry3::from_parts(
+            Translation3::new(guess[0], guess[1], world_from_rover.translation.z),
+            UnitQuaternion::from_euler_angles(roll, pitch, guess[2]),
+        );
+        let total_ticks = (config.duration_s / TICK_S).round() as usize;
+        let mut sim = Self {
+            moon,
+            config: config.clone(),
+            state,
+            vo,
+            rng,
+            navigator,
+            obstacles: ObstacleMemory::new(&config.obstacles),
+            seen: SeenGrid::new(0.25),
+            log: SessionLog {
+                seed,
+                config: config.clone(),
+                ticks: Vec::with_capacity(total_ticks + 1),
+                frames: Vec::new(),
+                navigation_counts: (0, 0, 0),
+                wall_time_s: 0.0,
+            },
+            total_ticks,
+            wall: 0.0,
+        };
+        let collision = sim.collision(&world_from_rover);
+        sim.log.ticks.push(TickRecord {
+            time_s: 0.0,
+            world_from_rover,
+            session_from_rover,
+            vo_prev_from_cur: Isometry3::identity(),
+            gravity_rover,
+            command: Command::default(),
+            mode: NavMode::Drive,
+            collision,
+        });
+        sim.take_frame();
+        sim.wall += started.elapsed().as_secs_f64();
+        Ok(sim)
+    }
+
+    /// The log so far.
+    pub fn log(&self) -> &SessionLog {
+        &self.log
+    }
+
+    /// Whether the session's duration has been simulated.
+    pub fn done(&self) -> bool {
+        self.log.ticks.len() > self.total_ticks
+    }
+
+    /// Tell the navigator where the session frame sits in the nav (world) frame, e.g. after
+    /// a relocalization (`world_from_session` estimate). Waypoints and the lander move with it.
+    pub fn set_world_from_session_estimate(&mut self, world_from_session: &Isometry3<f64>) {
+        let (_, _, yaw) = world_from_session.rotation.euler_angles();
+        let t = world_from_session.translation.vector;
+        self.navigator
+            .set_nav_from_session(Isometry2::new(Vector2::new(t.x, t.y), yaw));
+    }
+
+    fn collision(&self, world_from_rover: &Isometry3<f64>) -> Option<Obstruction> {
+        let (x, y) = (
+            world_from_rover.translation.x,
+            world_from_rover.translation.y,
+        );
+        let r = self.config.collision_radius_m;
+        if self.moon.distance_to_lander_m(x, y) < r {
+            return Some(Obstruction::Lander);
+        }
+        let mut hit = None;
+        self.moon
+            .for_each_rock_near(x, y, r + self.moon.max_rock_radius_m(), |i, rock| {
+                if rock.radius_m >= self.config.collision_min_rock_radius_m
+                    && (rock.center.x - x).hypot(rock.center.y - y) < r + rock.radius_m
+                    && hit.is_none()
+                {
+                    hit = Some(Obstruction::Rock(i));
+                }
+            });
+        hit
+    }
+
+    fn take_frame(&mut self) {
+        let Some(tick) = self.log.ticks.last().copied() else {
+            return;
+        };
+        let obs = observe(
+            self.moon,
+            &tick.world_from_rover,
+            &self.config.sensors,
+            &mut self.rng,
+        );
+        let est = tick.session_from_rover;
+        for b in &obs.boulders {
+            let p = est * b.p_rover;
+            self.obstacles.add_rock(Point2::new(p.x, p.y), b.radius_m);
+        }
+        // the ground the cameras saw (session frame)
+        for camera in cameras() {
+            let cam = Pose2::from_isometry3(&(est * camera.rover_from_camera));
+            let half_fov = (CX_PX / FOCAL_PX).atan();
+            let c = &self.config.sensors;
+            self.seen.mark_view(
+                cam,
+                half_fov,
+                c.min_range_m,
+                c.max_range_m.min(c.ground_max_range_m),
+            );
+        }
+        for q in &obs.lander_points_rover {
+            let p = est * q;
+            self.obstacles.add_point(Point2::new(p.x, p.y));
+        }
+        self.log.frames.push(FrameRecord {
+            tick: self.log.ticks.len() - 1,
+            time_s: tick.time_s,
+            boulders: obs.boulders,
+            ground: obs.ground,
+            lander_points_rover: obs.lander_points_rover,
+        });
+    }
+
+    /// Simulate one tick; returns false (doing nothing) once the duration is done.
+    pub fn step(&mut self) -> bool {
+        if self.done() {
+            return false;
+        }
+        let started = Instant::now();
+        let Some(prev) = self.log.ticks.last().copied() else {
+            return false;
+        };
+        let k = self.log.ticks.len();
+        let time_s = k as f64 * TICK_S;
+        let pose = Pose2::from_isometry3(&prev.session_from_rover);
+        // the rover stands on its own footprint: that ground is clear
+        self.seen
+            .mark_disc(pose.x, pose.y, self.config.collision_radius_m);
+        let command = self
+            .navigator
+            .command(prev.time_s, pose, &self.obstacles, Some(&self.seen));
+        self.state.step(command, &self.config.rover, TICK_S);
+        let world_from_rover = self.state.pose(self.moon);
+        let true_step = prev.world_from_rover.inverse() * world_from_rover;
+        let vo_prev_from_cur = self.vo.measure(&true_step);
+        let gravity_rover = gravity_in_rover(
+            &world_from_rover,
+            LUNAR_GRAVITY_MPS2,
+            self.config.sensors.gravity_sigma_rad,
+            &mut self.rng,
+        );
+        let integrated = prev.session_from_rover * vo_prev_from_cur;
+        let (_, _, yaw) = integrated.rotation.euler_angles();
+        let (roll, pitch) = roll_pitch_from_gravity(&gravity_rover);
+        let session_from_rover = Isometry3::from_parts(
+            integrated.translation,
+            UnitQuaternion::from_euler_angles(roll, pitch, yaw),
+        );
+        let collision = self.collision(&world_from_rover);
+        self.log.ticks.push(TickRecord {
+            time_s,
+            world_from_rover,
+            session_from_rover,
+            vo_prev_from_cur,
+            gravity_rover,
+            command,
+            mode: self.navigator.mode(),
+            collision,
+        });
+        if k.is_multiple_of(self.config.frame_period_ticks) {
+            self.take_frame();
+        }
+        self.log.navigation_counts = self.navigator.counts();
+        self.wall += started.elapsed().as_secs_f64();
+        self.log.wall_time_s = self.wall;
+        true
+    }
+
+    /// The finished log.
+    pub fn finish(mut self) -> SessionLog {
+        self.log.wall_time_s = self.wall;
+        self.log
+    }
+}
+
+/// Drive one whole session on `moon` from `config.start` for `config.duration_s`.
+pub fn run_session(
+    moon: &Moon,
+    config: &SessionConfig,
+    seed: u64,
+) -> Result<SessionLog, SessionError> {
+    let mut sim = SessionSim::new(moon, config, seed)?;
+    while sim.step() {}
+    Ok(sim.finish())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::moon::MoonConfig;
+
+    #[test]
+    fn gravity_gives_roll_and_pitch() {
+        let r = UnitQuaternion::from_euler_angles(0.1, -0.2, 1.0);
+        let g = r.inverse() * Vector3::new(0.0, 0.0, -1.622);
+        let (roll, pitch) = roll_pitch_from_gravity(&g);
+        assert!((roll - 0.1).abs() < 1e-12 && (pitch + 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn short_session_runs_and_logs() {
+        let moon = Moon::generate(&MoonConfig::default(), 3).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let config = SessionConfig {
+            duration_s: 30.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        let log = run_session(&moon, &config, 1).unwrap();
+        assert_eq!(log.ticks.len(), 601);
+        assert_eq!(log.frames.len(), 31);
+        let s = log.summary();
+        assert!(s.distance_m > 1.0, "{s:?}");
+        assert!(s.detections > 0 && s.ground_points > 1000, "{s:?}");
+        let set = log.detection_set("s1", 0.0, 100.0);
+        assert_eq!(set.detections.len(), s.detections);
+        // session frame = world frame at the start (known start pose), up to the IMU's tilt
+        // error
+        let w = log.world_from_session();
+        assert!(w.translation.vector.norm() < 0.05 && w.rotation.angle() < 0.01);
+    }
+
+    #[test]
+    fn rejects_bad_config() {
+        let moon = Moon::generate(&MoonConfig::default(), 3).unwrap();
+        let config = SessionConfig {
+            duration_s: f64::NAN,
+            ..SessionConfig::default()
+        };
+        assert!(run_session(&moon, &config, 1).is_err());
+    }
+}
