@@ -327,12 +327,14 @@ def main():
         old = open(args.benchmarks).read()
     except FileNotFoundError:
         old = "# Benchmarks\n\n"
-    start = old.find(SECTION)
-    if start < 0:
-        new = old.rstrip("\n") + "\n\n" + text
+    # Only the block between this section's own markers is replaced.
+    begin, end_marker = "<!-- posegraph:begin -->", "<!-- posegraph:end -->"
+    block = f"{begin}\n{text.rstrip()}\n{end_marker}"
+    start, end = old.find(begin), old.find(end_marker)
+    if start < 0 or end < start:
+        new = old.rstrip("\n") + "\n\n" + block + "\n"
     else:
-        end = old.find("\n## ", start + len(SECTION))
-        new = old[:start] + text + ("" if end < 0 else "\n" + old[end + 1:])
+        new = old[:start] + block + old[end + len(end_marker):]
     with open(args.benchmarks + ".tmp", "w") as f:
         f.write(new.rstrip("\n") + "\n")
     os.replace(args.benchmarks + ".tmp", args.benchmarks)
