@@ -17,6 +17,8 @@ echo "[bench_merge] 5 agents + 1 decoy, 100 trials" >&2
 $bin eval merge --data "$data" --agents 5 --decoys 1 --trials 100 --seed 1 --json > "$out/merge5.json"
 echo "[bench_merge] all 17 agents + 2 decoys, 3 trials" >&2
 $bin eval merge --data "$data" --agents 17 --decoys 2 --trials 3 --seed 2 --json > "$out/merge17.json"
+echo "[bench_merge] rock map of the merged 17-traverse map" >&2
+$bin eval merge --data "$data" --rock-map --seed 2 --json > "$out/merge_rocks.json"
 python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" "$(cut -d' ' -f1-3 /proc/loadavg)" <<'PY'
 import json, re, sys
 out, date, machine, commit, load = sys.argv[1:6]
@@ -54,6 +56,16 @@ w("Placements outside 1 cm / 0.1° come in groups: in such a trial every agent i
   "not met for about 5% of placements; the worst is quoted above.")
 w("")
 block(m17, "All 17 traverses + 2 decoys, 3 trials", "segloc eval merge --agents 17 --decoys 2 --trials 3 --seed 2")
+rk = json.load(open(f"{out}/merge_rocks.json"))
+w("### Rock map of the merged map")
+w("")
+w("`segloc eval merge --rock-map --seed 2`: all 17 traverses merged (each from its own random frame), the merged "
+  "landmarks turned into a LAC rock grid (`mapping::rock_grid`, the same method for every map) and scored against "
+  "the ground truth, beside each single traverse's map made the same way.")
+w("")
+w(f"- merged map: rock F1 **{rk['merged_f1']:.3f}** (precision {rk['merged_precision']:.3f}, recall {rk['merged_recall']:.3f})")
+w(f"- best single traverse: {rk['best_single'][0]} with F1 {rk['best_single'][1]:.3f}; all: " + ", ".join(f"{n}: {f:.3f}" for n, f in rk['single_f1']))
+w("")
 text = "\n".join(L)
 path = "BENCHMARKS.md"
 doc = open(path).read()
