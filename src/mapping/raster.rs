@@ -130,19 +130,10 @@ impl Canvas {
 
     /// Text in the 3 × 5 font scaled by `scale`, top-left at (x, y); returns the x after it.
     pub fn text(&mut self, x: i64, y: i64, text: &str, scale: i64, c: Rgb) -> i64 {
-        let mut cx = x;
-        for ch in text.chars() {
-            let bits = glyph(ch);
-            for row in 0..5 {
-                for col in 0..3 {
-                    if bits >> (14 - (row * 3 + col)) & 1 == 1 {
-                        self.fill_rect(cx + col * scale, y + row * scale, scale, scale, c);
-                    }
-                }
-            }
-            cx += 4 * scale;
-        }
-        cx
+        crate::font::for_each_lit_pixel(text, |fx, fy| {
+            self.fill_rect(x + fx * scale, y + fy * scale, scale, scale, c)
+        });
+        x + text.chars().count() as i64 * crate::font::ADVANCE * scale
     }
 
     /// A legend entry: a colour block then its label; returns the x after it.
@@ -170,64 +161,6 @@ impl Canvas {
         Ok(())
     }
 }
-
-/// The 15-bit 3 × 5 glyph of a character (rows top to bottom, bits left to right).
-fn glyph(ch: char) -> u16 {
-    let rows: [u8; 5] = match ch.to_ascii_uppercase() {
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [7, 1, 7, 4, 7],
-        '3' => [7, 1, 7, 1, 7],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 7, 1, 7],
-        '6' => [7, 4, 7, 5, 7],
-        '7' => [7, 1, 1, 1, 1],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 7],
-        'A' => [2, 5, 7, 5, 5],
-        'B' => [6, 5, 6, 5, 6],
-        'C' => [3, 4, 4, 4, 3],
-        'D' => [6, 5, 5, 5, 6],
-        'E' => [7, 4, 6, 4, 7],
-        'F' => [7, 4, 6, 4, 4],
-        'G' => [3, 4, 5, 5, 3],
-        'H' => [5, 5, 7, 5, 5],
-        'I' => [7, 2, 2, 2, 7],
-        'J' => [1, 1, 1, 5, 2],
-        'K' => [5, 5, 6, 5, 5],
-        'L' => [4, 4, 4, 4, 7],
-        'M' => [5, 7, 7, 5, 5],
-        'N' => [6, 5, 5, 5, 5],
-        'O' => [2, 5, 5, 5, 2],
-        'P' => [6, 5, 6, 4, 4],
-        'Q' => [2, 5, 5, 6, 3],
-        'R' => [6, 5, 6, 5, 5],
-        'S' => [3, 4, 2, 1, 6],
-        'T' => [7, 2, 2, 2, 2],
-        'U' => [5, 5, 5, 5, 7],
-        'V' => [5, 5, 5, 5, 2],
-        'W' => [5, 5, 7, 7, 5],
-        'X' => [5, 5, 2, 5, 5],
-        'Y' => [5, 5, 2, 2, 2],
-        'Z' => [7, 1, 2, 4, 7],
-        '.' => [0, 0, 0, 0, 2],
-        ',' => [0, 0, 0, 2, 4],
-        '-' => [0, 0, 7, 0, 0],
-        '+' => [0, 2, 7, 2, 0],
-        ':' => [0, 2, 0, 2, 0],
-        '/' => [1, 1, 2, 4, 4],
-        '(' => [2, 4, 4, 4, 2],
-        ')' => [2, 1, 1, 1, 2],
-        '%' => [5, 1, 2, 4, 5],
-        '=' => [0, 7, 0, 7, 0],
-        '<' => [1, 2, 4, 2, 1],
-        '>' => [4, 2, 1, 2, 4],
-        '_' => [0, 0, 0, 0, 7],
-        _ => [0, 0, 0, 0, 0],
-    };
-    rows.iter().fold(0u16, |acc, &r| (acc << 3) | r as u16)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

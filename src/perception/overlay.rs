@@ -76,27 +76,6 @@ pub fn write_overlay(
     std::fs::write(path, bytes).map_err(|e| PerceptionError::io(path, e))
 }
 
-/// 3 × 5 glyphs, one row per 3 bits (most significant = left).
-fn glyph(c: char) -> Option<[u8; 5]> {
-    Some(match c {
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [7, 1, 7, 4, 7],
-        '3' => [7, 1, 7, 1, 7],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 7, 1, 7],
-        '6' => [7, 4, 7, 5, 7],
-        '7' => [7, 1, 1, 1, 1],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 7],
-        '.' => [0, 0, 0, 0, 2],
-        'm' => [0, 0, 7, 7, 5],
-        '/' => [1, 1, 2, 4, 4],
-        '-' => [0, 0, 7, 0, 0],
-        _ => return None,
-    })
-}
-
 /// Text at (x, y) (top left), glyphs scaled ×2, on a dark backing for legibility.
 fn draw_text(rgb: &mut [u8], w: usize, h: usize, x: isize, y: isize, text: &str, colour: [u8; 3]) {
     const S: isize = 2;
@@ -112,19 +91,11 @@ fn draw_text(rgb: &mut [u8], w: usize, h: usize, x: isize, y: isize, text: &str,
             set(px, py, [0, 0, 0]);
         }
     }
-    for (k, c) in text.chars().enumerate() {
-        let Some(rows) = glyph(c) else { continue };
-        let gx = x + k as isize * 4 * S;
-        for (r, bits) in rows.iter().enumerate() {
-            for col in 0..3 {
-                if bits & (4 >> col) != 0 {
-                    for sy in 0..S {
-                        for sx in 0..S {
-                            set(gx + col * S + sx, y + r as isize * S + sy, colour);
-                        }
-                    }
-                }
+    crate::font::for_each_lit_pixel(text, |fx, fy| {
+        for sy in 0..S {
+            for sx in 0..S {
+                set(x + fx as isize * S + sx, y + fy as isize * S + sy, colour);
             }
         }
-    }
+    });
 }
