@@ -2,7 +2,7 @@
 //! maps, session 2 starts lost and relocalizes against it — with the LAC maps scored.
 
 use super::print_json;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use segloc::mission::{run_mission, MissionConfig};
 use segloc::relocalize::RelocalizeConfig;
@@ -23,17 +23,37 @@ pub struct MissionArgs {
     /// Write report.json and the pictures into this directory.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Mission configuration (TOML, fields of `MissionConfig`); defaults otherwise. Its
+    /// `relocalize` table is replaced by the global `--config` when that is given.
+    #[arg(long, value_name = "FILE")]
+    pub mission_config: Option<PathBuf>,
 }
 
 /// Run the mission; exit code 0, or 2 on bad input.
-pub fn run(args: &MissionArgs, relocalize: &RelocalizeConfig) -> Result<i32> {
+pub fn run(
+    args: &MissionArgs,
+    relocalize: &RelocalizeConfig,
+    global_config_given: bool,
+) -> Result<i32> {
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 1e5) {
         bail!("--seconds must be within (0, 1e5]");
     }
+    let base = match &args.mission_config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            toml::from_str(&text).with_context(|| format!("mission config {}", path.display()))?
+        }
+        None => MissionConfig::default(),
+    };
     let config = MissionConfig {
         seconds_per_session: args.seconds,
-        relocalize: relocalize.clone(),
-        ..MissionConfig::default()
+        relocalize: if global_config_given {
+            relocalize.clone()
+        } else {
+            base.relocalize.clone()
+        },
+        ..base
     };
     let output = run_mission(args.seed, &config)?;
     if let Some(dir) = &args.out {

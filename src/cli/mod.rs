@@ -77,7 +77,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Grid(cmd) => grid::run(&cmd),
         Command::Detect(args) => detect::run(&args),
         Command::Sim(cmd) => sim::run(&cmd),
-        Command::Mission(args) => mission::run(&args, &config),
+        Command::Mission(args) => mission::run(&args, &config, cli.config.is_some()),
     }
 }
 

@@ -2,7 +2,9 @@
 //! relocalize a submap of the recent detections (odometry frame) against session 1's map,
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
-use super::trajectory::{detections_with_poses, TrajectoryGraph};
+use super::trajectory::{
+    detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
+};
 use super::{Attempt, MissionConfig, MissionError};
 use crate::graph::se3;
 use crate::landmarks::fuse_detections;
@@ -94,9 +96,6 @@ fn attempt(
         .collect();
     let set = detections_with_poses(log, &odometry, first..k + 1, "session2", "odom");
     let query = fuse_detections(&set, &config.fusion);
-    let tick = log.frames[k].tick;
-    let odom_from_rover = odometry[k];
-    let world_from_rover_true = log.ticks[tick].world_from_rover;
     let mut record = Attempt {
         session: 2,
         time_s: now_s,
@@ -106,6 +105,7 @@ fn attempt(
         inliers: 0,
         error_m: None,
         error_deg: None,
+        error_yaw_deg: None,
         wrong: false,
     };
     let result = relocalizer.relocalize(&query);
@@ -128,6 +128,11 @@ fn attempt(
         attempts.push(record);
         return Ok(false);
     };
+    // anchor: the frame nearest the matched landmarks (least drift relative to them)
+    let matched = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
+    let k = frame_nearest(&odometry, first..k + 1, &matched);
+    let odom_from_rover = odometry[k];
+    let world_from_rover_true = log.ticks[log.frames[k].tick].world_from_rover;
     let prior_from_rover = prior_from_odom * odom_from_rover;
     let error = world_from_rover_true.inverse() * prior_from_rover;
     let error_m = error.translation.vector.norm();
@@ -135,6 +140,7 @@ fn attempt(
     record.accepted = true;
     record.error_m = Some(error_m);
     record.error_deg = Some(error_deg);
+    record.error_yaw_deg = Some(error.rotation.euler_angles().2.to_degrees());
     record.wrong = error_m > config.wrong_translation_m || error_deg > config.wrong_rotation_deg;
     attempts.push(record);
     // information on the right perturbation of prior_from_odom → of prior_from_rover

@@ -78,6 +78,10 @@ pub struct MissionConfig {
     pub relocalize_period_s: f64,
     /// Seconds of recent detections in a relocalization submap.
     pub submap_window_s: f64,
+    /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
+    pub loop_closures: bool,
+    /// Loop closures: the earlier map ends this many seconds before the submap starts.
+    pub loop_closure_gap_s: f64,
     /// Multiplies the relocalizer's information before it enters the graph (< 1: trust the
     /// submap less, since its odometry drifted within the window).
     pub relocalization_information_scale: f64,
@@ -108,6 +112,8 @@ impl Default for MissionConfig {
             guess_error_2: [0.8, -0.6, 0.25],
             relocalize_period_s: 10.0,
             submap_window_s: 25.0,
+            loop_closures: true,
+            loop_closure_gap_s: 30.0,
             relocalization_information_scale: 1.0,
             vo_translation_sigma_m_per_m: 0.015,
             vo_yaw_sigma_rad_per_m: 0.003,
@@ -135,6 +141,9 @@ impl MissionConfig {
         }
         if !(self.submap_window_s.is_finite() && self.submap_window_s > 0.0) {
             return bad("submap_window_s must be positive");
+        }
+        if !(self.loop_closure_gap_s.is_finite() && self.loop_closure_gap_s >= 0.0) {
+            return bad("loop_closure_gap_s must be non-negative");
         }
         let positive = [
             self.relocalization_information_scale,

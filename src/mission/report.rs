@@ -32,6 +32,8 @@ pub struct Attempt {
     pub error_m: Option<f64>,
     /// Accepted: rotation error, degrees.
     pub error_deg: Option<f64>,
+    /// Accepted: the yaw part of the rotation error, degrees.
+    pub error_yaw_deg: Option<f64>,
     /// Accepted but off by more than the mission's thresholds.
     pub wrong: bool,
 }
@@ -108,7 +110,8 @@ pub struct MissionReport {
     pub sessions: Vec<SessionReport>,
     /// LAC scores.
     pub lac: LacSummary,
-    /// All relocalization attempts counted.
+    /// All relocalization attempts counted (session 1's loop closures and session 2's
+    /// relocalizations against session 1's map).
     pub relocalizations: RelocalizationCounts,
     /// Every attempt.
     pub attempts: Vec<Attempt>,
@@ -178,12 +181,13 @@ pub(super) fn assemble(
     wall_s: f64,
 ) -> MissionOutput {
     let sessions = vec![
-        session_report(1, &one.log, &one.poses, &[]),
+        session_report(1, &one.log, &one.poses, &one.attempts),
         session_report(2, &two.log, &two.poses, &two.attempts),
     ];
     let collisions = sessions.iter().map(|s| s.collisions).sum();
     let simulated: f64 = sessions.iter().map(|s| s.duration_s).sum();
     let s = &maps.score;
+    let attempts: Vec<Attempt> = one.attempts.iter().chain(&two.attempts).cloned().collect();
     let trajectories = [(&one.log, &one.poses), (&two.log, &two.poses)]
         .iter()
         .map(|(log, poses)| {
@@ -208,8 +212,8 @@ pub(super) fn assemble(
                 rock_recall: s.rock_recall,
                 landmarks: maps.landmarks,
             },
-            relocalizations: RelocalizationCounts::of(&two.attempts),
-            attempts: two.attempts.clone(),
+            relocalizations: RelocalizationCounts::of(&attempts),
+            attempts,
             collisions,
             realtime_factor: simulated / wall_s.max(1e-9),
             wall_s,

@@ -220,3 +220,39 @@ pub fn odometry_in_world(log: &SessionLog) -> Vec<Isometry3<f64>> {
         .map(|t| world_from_session * t.session_from_rover)
         .collect()
 }
+
+/// The frame in `frames` whose pose (`poses`, one per frame) lies horizontally nearest the
+/// centroid of `points` (the first of `frames` when there are no points).
+pub fn frame_nearest(
+    poses: &[Isometry3<f64>],
+    frames: std::ops::Range<usize>,
+    points: &[Point3<f64>],
+) -> usize {
+    let start = frames.start;
+    if points.is_empty() {
+        return start;
+    }
+    let centroid = points
+        .iter()
+        .map(|p| p.coords)
+        .sum::<nalgebra::Vector3<f64>>()
+        / points.len() as f64;
+    frames
+        .filter(|&k| k < poses.len())
+        .min_by(|&a, &b| {
+            let da = (poses[a].translation.vector - centroid).xy().norm();
+            let db = (poses[b].translation.vector - centroid).xy().norm();
+            da.total_cmp(&db)
+        })
+        .unwrap_or(start)
+}
+
+/// Positions of the landmarks of `map` with these ids.
+pub fn landmark_positions(
+    map: &segloc_maps::ObjectMap,
+    ids: impl Iterator<Item = u32>,
+) -> Vec<Point3<f64>> {
+    ids.filter_map(|id| map.landmarks.iter().find(|l| l.id == id))
+        .map(|l| l.position)
+        .collect()
+}
