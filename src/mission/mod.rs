@@ -89,6 +89,8 @@ pub struct MissionConfig {
     pub vo_translation_sigma_m_per_m: f64,
     /// Odometry yaw noise per metre driven, 1 σ (graph weights).
     pub vo_yaw_sigma_rad_per_m: f64,
+    /// Odometry yaw noise per radian turned, 1 σ (graph weights).
+    pub vo_yaw_sigma_per_rad_turned: f64,
     /// An accepted relocalization off by more than this (m) counts as wrong.
     pub wrong_translation_m: f64,
     /// An accepted relocalization off by more than this (degrees) counts as wrong.
@@ -117,6 +119,7 @@ impl Default for MissionConfig {
             relocalization_information_scale: 1.0,
             vo_translation_sigma_m_per_m: 0.015,
             vo_yaw_sigma_rad_per_m: 0.003,
+            vo_yaw_sigma_per_rad_turned: 0.005,
             wrong_translation_m: 0.10,
             wrong_rotation_deg: 1.0,
             fusion: FusionConfig::default(),
@@ -149,6 +152,7 @@ impl MissionConfig {
             self.relocalization_information_scale,
             self.vo_translation_sigma_m_per_m,
             self.vo_yaw_sigma_rad_per_m,
+            self.vo_yaw_sigma_per_rad_turned,
             self.wrong_translation_m,
             self.wrong_rotation_deg,
         ];

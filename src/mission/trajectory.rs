@@ -11,11 +11,18 @@ use segloc_maps::{Detection, DetectionSet};
 pub const PRIOR_FRAME: u64 = 0;
 
 /// Information of one odometry step between frames (rotation, translation order): the
-/// gravity fixes roll and pitch well, yaw and translation drift slowly.
-pub fn odometry_information(distance_m: f64, config: &super::MissionConfig) -> Matrix6<f64> {
+/// gravity fixes roll and pitch well; yaw drifts with the distance driven and the angle
+/// turned, translation with the distance.
+pub fn odometry_information(
+    distance_m: f64,
+    turned_rad: f64,
+    config: &super::MissionConfig,
+) -> Matrix6<f64> {
     let d = distance_m.max(0.05);
     let sigma_t = config.vo_translation_sigma_m_per_m * d + 1e-3;
-    let sigma_yaw = config.vo_yaw_sigma_rad_per_m * d + 1e-4;
+    let sigma_yaw = config.vo_yaw_sigma_rad_per_m * d
+        + config.vo_yaw_sigma_per_rad_turned * turned_rad.abs()
+        + 1e-4;
     let sigma_tilt = 2e-3;
     let mut info = Matrix6::zeros();
     info[(0, 0)] = 1.0 / (sigma_tilt * sigma_tilt);
@@ -83,7 +90,8 @@ impl TrajectoryGraph {
                     .odometry_between(prev_tick, tick)
                     .unwrap_or_else(Isometry3::identity);
                 let distance = path_length(log, prev_tick, tick);
-                let info = odometry_information(distance, config);
+                let turned = angle_turned(log, prev_tick, tick);
+                let info = odometry_information(distance, turned, config);
                 self.graph
                     .add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
             }
@@ -161,6 +169,14 @@ fn path_length(log: &SessionLog, a: usize, b: usize) -> f64 {
     (a..b)
         .filter_map(|k| log.ticks.get(k + 1))
         .map(|t| t.vo_prev_from_cur.translation.vector.norm())
+        .sum()
+}
+
+/// Absolute yaw turned between two ticks, from the odometry estimate, radians.
+fn angle_turned(log: &SessionLog, a: usize, b: usize) -> f64 {
+    (a..b)
+        .filter_map(|k| log.ticks.get(k + 1))
+        .map(|t| t.vo_prev_from_cur.rotation.euler_angles().2.abs())
         .sum()
 }
 
