@@ -6,7 +6,7 @@ use super::trajectory::{
     detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
 };
 use super::{Attempt, MissionConfig, MissionError};
-use crate::graph::se3;
+use crate::graph::{se3, RobustKernel};
 use crate::landmarks::fuse_detections;
 use crate::relocalize::Relocalizer;
 use crate::sim::moon::Moon;
@@ -147,7 +147,13 @@ fn attempt(
     let ad = se3::adjoint(&odom_from_rover);
     let information =
         ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
-    graph.add_relocalization(k, prior_from_rover, information)?;
+    let index = graph.add_relocalization(k, prior_from_rover, information)?;
+    graph.graph.set_factor_kernel(
+        index,
+        RobustKernel::Cauchy {
+            c: config.robust_scale,
+        },
+    )?;
     Ok(true)
 }
 

@@ -61,18 +61,13 @@ pub fn map_session(
 
 /// Every `relocalize_period_s`, relocalize the submap of the last `submap_window_s` against
 /// the map of the frames older than `loop_closure_gap_s` before the submap (both in the
-/// odometry frame); an accepted result becomes a between factor from the earlier frame
+/// current estimate of the session frame, re-optimised after each closure); an accepted result becomes a between factor from the earlier frame
 /// nearest the matched landmarks to the submap's last frame.
 fn loop_closures(
     log: &SessionLog,
     config: &MissionConfig,
     graph: &mut TrajectoryGraph,
 ) -> Result<Vec<Attempt>, MissionError> {
-    let odometry: Vec<Isometry3<f64>> = log
-        .frames
-        .iter()
-        .map(|f| log.ticks[f.tick].session_from_rover)
-        .collect();
     let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
     let mut attempts = Vec::new();
     let mut t = config.relocalize_period_s;
@@ -91,6 +86,9 @@ fn loop_closures(
         if old_end < 10 {
             continue;
         }
+        // both maps placed with the current estimate (earlier loop closures applied), so
+        // the old map is consistent with itself
+        let odometry = graph.poses_in_prior();
         let old = fuse_detections(
             &detections_with_poses(log, &odometry, 0..old_end, "session1-old", "odom"),
             &config.fusion,
@@ -157,13 +155,13 @@ fn loop_closures(
         let ad = se3::adjoint(&odometry[k]);
         let information =
             ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
-        graph.graph.add_between(
-            j as u64,
-            k as u64,
-            j_from_k,
-            information,
-            RobustKernel::None,
-        )?;
+        let kernel = RobustKernel::Cauchy {
+            c: config.robust_scale,
+        };
+        graph
+            .graph
+            .add_between(j as u64, k as u64, j_from_k, information, kernel)?;
+        graph.optimize()?;
     }
     Ok(attempts)
 }

@@ -85,6 +85,9 @@ pub struct MissionConfig {
     /// Multiplies the relocalizer's information before it enters the graph (< 1: trust the
     /// submap less, since its odometry drifted within the window).
     pub relocalization_information_scale: f64,
+    /// Scale (Mahalanobis distance) of the Cauchy kernel on loop-closure and relocalization
+    /// factors.
+    pub robust_scale: f64,
     /// Odometry translation noise per metre driven, 1 σ (graph weights).
     pub vo_translation_sigma_m_per_m: f64,
     /// Odometry yaw noise per metre driven, 1 σ (graph weights).
@@ -117,6 +120,7 @@ impl Default for MissionConfig {
             loop_closures: true,
             loop_closure_gap_s: 30.0,
             relocalization_information_scale: 1.0,
+            robust_scale: 3.0,
             vo_translation_sigma_m_per_m: 0.015,
             vo_yaw_sigma_rad_per_m: 0.003,
             vo_yaw_sigma_per_rad_turned: 0.005,
@@ -150,6 +154,7 @@ impl MissionConfig {
         }
         let positive = [
             self.relocalization_information_scale,
+            self.robust_scale,
             self.vo_translation_sigma_m_per_m,
             self.vo_yaw_sigma_rad_per_m,
             self.vo_yaw_sigma_per_rad_turned,

@@ -102,13 +102,13 @@ impl TrajectoryGraph {
 
     /// Add a relocalization of frame `k` against the prior map: `prior_from_rover`
     /// measured, with its information (the prior frame variable is created on first use,
-    /// initialised from this measurement).
+    /// initialised from this measurement); returns the factor index.
     pub fn add_relocalization(
         &mut self,
         k: usize,
         prior_from_rover: Isometry3<f64>,
         information: Matrix6<f64>,
-    ) -> Result<(), GraphError> {
+    ) -> Result<usize, GraphError> {
         if !self.has_prior_frame {
             let odom_from_rover = self
                 .graph
@@ -119,8 +119,7 @@ impl TrajectoryGraph {
             self.has_prior_frame = true;
         }
         self.graph
-            .add_relocalization(k as u64, PRIOR_FRAME, prior_from_rover, information)?;
-        Ok(())
+            .add_relocalization(k as u64, PRIOR_FRAME, prior_from_rover, information)
     }
 
     /// Optimise.
