@@ -218,3 +218,46 @@ pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, M
         seed, config, &session_1, &session_2, maps, truth, wall_s,
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_config_is_valid_and_round_trips_through_toml() {
+        let c = MissionConfig::default();
+        c.validate().unwrap();
+        let text = toml::to_string(&c).unwrap();
+        let back: MissionConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+        let partial: MissionConfig = toml::from_str("seconds_per_session = 60.0").unwrap();
+        assert_eq!(partial.seconds_per_session, 60.0);
+    }
+
+    #[test]
+    fn rejects_bad_config() {
+        for bad in [
+            MissionConfig {
+                seconds_per_session: f64::NAN,
+                ..MissionConfig::default()
+            },
+            MissionConfig {
+                relocalize_period_s: 0.0,
+                ..MissionConfig::default()
+            },
+            MissionConfig {
+                robust_scale: -1.0,
+                ..MissionConfig::default()
+            },
+            MissionConfig {
+                guess_error_2: [f64::INFINITY, 0.0, 0.0],
+                ..MissionConfig::default()
+            },
+        ] {
+            assert!(matches!(
+                run_mission(1, &bad),
+                Err(MissionError::InvalidConfig(_))
+            ));
+        }
+    }
+}

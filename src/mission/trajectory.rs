@@ -271,3 +271,63 @@ pub fn landmark_positions(
         .map(|l| l.position)
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::MissionConfig;
+
+    #[test]
+    fn odometry_weight_falls_with_distance_and_turning() {
+        let c = MissionConfig::default();
+        let still = odometry_information(0.0, 0.0, &c);
+        let driven = odometry_information(1.0, 0.0, &c);
+        let turned = odometry_information(0.0, 1.5, &c);
+        assert!(driven[(3, 3)] < still[(3, 3)]);
+        assert!(driven[(2, 2)] < still[(2, 2)]);
+        assert!(turned[(2, 2)] < still[(2, 2)]);
+        assert_eq!(turned[(3, 3)], still[(3, 3)]);
+    }
+
+    #[test]
+    fn nearest_frame_to_the_points() {
+        let poses: Vec<_> = (0..5)
+            .map(|k| Isometry3::translation(k as f64, 0.0, 0.0))
+            .collect();
+        let points = [Point3::new(2.8, 1.0, 0.0), Point3::new(3.2, -1.0, 0.0)];
+        assert_eq!(frame_nearest(&poses, 0..5, &points), 3);
+        assert_eq!(frame_nearest(&poses, 0..2, &points), 1);
+        assert_eq!(frame_nearest(&poses, 2..5, &[]), 2);
+    }
+
+    #[test]
+    fn chain_of_odometry_and_a_relocalization() {
+        use crate::sim::moon::{Moon, MoonConfig};
+        use crate::sim::session::{run_session, SessionConfig};
+        let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let config = SessionConfig {
+            duration_s: 20.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        let log = run_session(&moon, &config, 3).unwrap();
+        let mission = MissionConfig::default();
+        let mut graph = TrajectoryGraph::new();
+        graph.extend(&log, &mission).unwrap();
+        assert_eq!(graph.frames, log.frames.len());
+        graph.optimize().unwrap();
+        // odometry alone: the graph reproduces the logged estimate
+        let poses = graph.poses_in_prior();
+        let odometry = odometry_in_world(&log);
+        assert!(rmse_m(&log, &poses) - rmse_m(&log, &odometry) < 1e-3);
+        // a perfect relocalization of the last frame pulls it onto the truth
+        let k = graph.frames - 1;
+        let truth = log.ticks[log.frames[k].tick].world_from_rover;
+        let info = Matrix6::identity() * 1e6;
+        graph.add_relocalization(k, truth, info).unwrap();
+        graph.optimize().unwrap();
+        let poses = graph.poses_in_prior();
+        assert!((poses[k].translation.vector - truth.translation.vector).norm() < 0.01);
+    }
+}
