@@ -7,7 +7,7 @@ use super::trajectory::{
 };
 use super::{Attempt, MissionConfig, MissionError};
 use crate::graph::{se3, RobustKernel};
-use crate::landmarks::fuse_detections;
+use crate::landmarks::{fuse_detections, FusionConfig};
 use crate::relocalize::Relocalizer;
 use crate::sim::moon::Moon;
 use crate::sim::session::{run_session, SessionConfig, SessionLog};
@@ -60,15 +60,20 @@ pub fn map_session(
 }
 
 /// Every `relocalize_period_s`, relocalize the submap of the last `submap_window_s` against
-/// the map of the frames older than `loop_closure_gap_s` before the submap (both in the
-/// current estimate of the session frame, re-optimised after each closure); an accepted result becomes a between factor from the earlier frame
-/// nearest the matched landmarks to the submap's last frame.
+/// (1) the *start map*, the detections of the frames before the rover moved or turned much
+/// (their poses are known almost exactly from the known start, so a match there fixes the
+/// yaw the odometry lost while turning on the spot), and (2) the map of the frames older
+/// than `loop_closure_gap_s` before the submap. Both maps are placed with the current
+/// estimate (earlier closures applied, re-optimised after each). An accepted result becomes a
+/// between factor from the earlier frame nearest the matched landmarks (frame 0 for the
+/// start map) to the submap frame nearest its matched landmarks.
 fn loop_closures(
     log: &SessionLog,
     config: &MissionConfig,
     graph: &mut TrajectoryGraph,
 ) -> Result<Vec<Attempt>, MissionError> {
     let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
+    let start_end = start_frames(log, config);
     let mut attempts = Vec::new();
     let mut t = config.relocalize_period_s;
     let end = log.frames.last().map_or(0.0, |f| f.time_s);
@@ -86,82 +91,140 @@ fn loop_closures(
         if old_end < 10 {
             continue;
         }
-        // both maps placed with the current estimate (earlier loop closures applied), so
-        // the old map is consistent with itself
-        let odometry = graph.poses_in_prior();
-        let old = fuse_detections(
-            &detections_with_poses(log, &odometry, 0..old_end, "session1-old", "odom"),
-            &config.fusion,
-        );
-        let query = fuse_detections(
-            &detections_with_poses(log, &odometry, first..k + 1, "session1-recent", "odom"),
-            &config.fusion,
-        );
-        let mut record = Attempt {
-            session: 1,
-            time_s: log.frames[k].time_s,
-            query_landmarks: query.len(),
-            accepted: false,
-            refusal: None,
-            inliers: 0,
-            error_m: None,
-            error_deg: None,
-            error_yaw_deg: None,
-            wrong: false,
+        if start_end > 0 && start_end < first {
+            let reference = Reference {
+                frames: 0..start_end,
+                fixed_frame: Some(0),
+                min_observations: 1,
+            };
+            attempts.push(close_loop(log, config, graph, &reference, first..k + 1)?);
+        }
+        let reference = Reference {
+            frames: 0..old_end,
+            fixed_frame: None,
+            min_observations: config.fusion.min_observations,
         };
-        let reloc = match Relocalizer::new(old.clone(), config.relocalize.clone())
-            .and_then(|r| r.relocalize(&query))
-        {
-            Ok(r) => r,
-            Err(e) => {
-                record.refusal = Some(format!("error: {e}"));
-                attempts.push(record);
-                continue;
-            }
-        };
-        record.inliers = reloc.inliers.len();
-        let Some(old_from_recent) = reloc.prior_from_query else {
-            record.refusal = Some(
-                reloc
-                    .refusal
-                    .as_ref()
-                    .map_or_else(|| "refused".to_string(), |r| r.to_string()),
-            );
-            attempts.push(record);
-            continue;
-        };
-        // the earlier frame nearest the matched landmarks of the old map, and the recent
-        // frame nearest the matched landmarks of the submap (least drift relative to them)
-        let matched_old = landmark_positions(&old, reloc.inliers.iter().map(|(p, _)| *p));
-        let matched_new = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
-        let j = frame_nearest(&odometry, 0..old_end, &matched_old);
-        let k = frame_nearest(&odometry, first..k + 1, &matched_new);
-        let j_from_k = odometry[j].inverse() * old_from_recent * odometry[k];
-        let truth = log
-            .true_motion_between(log.frames[j].tick, log.frames[k].tick)
-            .unwrap_or_else(Isometry3::identity);
-        let error = truth.inverse() * j_from_k;
-        let (error_m, error_deg) = (
-            error.translation.vector.norm(),
-            error.rotation.angle().to_degrees(),
-        );
-        record.accepted = true;
-        record.error_m = Some(error_m);
-        record.error_deg = Some(error_deg);
-        record.error_yaw_deg = Some(error.rotation.euler_angles().2.to_degrees());
-        record.wrong =
-            error_m > config.wrong_translation_m || error_deg > config.wrong_rotation_deg;
-        attempts.push(record);
-        let ad = se3::adjoint(&odometry[k]);
-        let information =
-            ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
-        let kernel = RobustKernel::Cauchy {
-            c: config.robust_scale,
-        };
-        graph
-            .graph
-            .add_between(j as u64, k as u64, j_from_k, information, kernel)?;
-        graph.optimize()?;
+        attempts.push(close_loop(log, config, graph, &reference, first..k + 1)?);
     }
     Ok(attempts)
+}
+
+/// The frames taken before the rover moved more than 0.3 m or turned more than 15° from its
+/// start (by odometry): their end index.
+fn start_frames(log: &SessionLog, config: &MissionConfig) -> usize {
+    let Some(first) = log.ticks.first() else {
+        return 0;
+    };
+    let moved = |t: &crate::sim::session::TickRecord| {
+        let d = first.session_from_rover.inverse() * t.session_from_rover;
+        d.translation.vector.xy().norm() > config.start_map_max_motion_m
+            || d.rotation.euler_angles().2.abs() > config.start_map_max_turn_deg.to_radians()
+    };
+    log.frames
+        .iter()
+        .position(|f| log.ticks.get(f.tick).is_none_or(moved))
+        .unwrap_or(log.frames.len())
+}
+
+/// What a submap is relocalized against.
+struct Reference {
+    /// Frames whose detections make the map.
+    frames: std::ops::Range<usize>,
+    /// The earlier end of the factor, if fixed (otherwise nearest the matched landmarks).
+    fixed_frame: Option<usize>,
+    /// Fusion's minimum observations for this map.
+    min_observations: u32,
+}
+
+fn close_loop(
+    log: &SessionLog,
+    config: &MissionConfig,
+    graph: &mut TrajectoryGraph,
+    reference: &Reference,
+    recent: std::ops::Range<usize>,
+) -> Result<Attempt, MissionError> {
+    let odometry = graph.poses_in_prior();
+    let fusion = FusionConfig {
+        min_observations: reference.min_observations,
+        ..config.fusion.clone()
+    };
+    let old = fuse_detections(
+        &detections_with_poses(
+            log,
+            &odometry,
+            reference.frames.clone(),
+            "session1-old",
+            "odom",
+        ),
+        &fusion,
+    );
+    let query = fuse_detections(
+        &detections_with_poses(log, &odometry, recent.clone(), "session1-recent", "odom"),
+        &config.fusion,
+    );
+    let last = recent.end.saturating_sub(1);
+    let mut record = Attempt {
+        session: 1,
+        time_s: log.frames.get(last).map_or(0.0, |f| f.time_s),
+        query_landmarks: query.len(),
+        accepted: false,
+        refusal: None,
+        inliers: 0,
+        error_m: None,
+        error_deg: None,
+        error_yaw_deg: None,
+        wrong: false,
+    };
+    let reloc = match Relocalizer::new(old.clone(), config.relocalize.clone())
+        .and_then(|r| r.relocalize(&query))
+    {
+        Ok(r) => r,
+        Err(e) => {
+            record.refusal = Some(format!("error: {e}"));
+            return Ok(record);
+        }
+    };
+    record.inliers = reloc.inliers.len();
+    let Some(old_from_recent) = reloc.prior_from_query else {
+        record.refusal = Some(
+            reloc
+                .refusal
+                .as_ref()
+                .map_or_else(|| "refused".to_string(), |r| r.to_string()),
+        );
+        return Ok(record);
+    };
+    // the earlier frame nearest the matched landmarks of the old map, and the recent frame
+    // nearest the matched landmarks of the submap (least drift relative to them)
+    let matched_old = landmark_positions(&old, reloc.inliers.iter().map(|(p, _)| *p));
+    let matched_new = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
+    let j = reference
+        .fixed_frame
+        .unwrap_or_else(|| frame_nearest(&odometry, reference.frames.clone(), &matched_old));
+    let k = frame_nearest(&odometry, recent, &matched_new);
+    let j_from_k = odometry[j].inverse() * old_from_recent * odometry[k];
+    let truth = log
+        .true_motion_between(log.frames[j].tick, log.frames[k].tick)
+        .unwrap_or_else(Isometry3::identity);
+    let error = truth.inverse() * j_from_k;
+    let (error_m, error_deg) = (
+        error.translation.vector.norm(),
+        error.rotation.angle().to_degrees(),
+    );
+    record.accepted = true;
+    record.error_m = Some(error_m);
+    record.error_deg = Some(error_deg);
+    record.error_yaw_deg = Some(error.rotation.euler_angles().2.to_degrees());
+    record.wrong = error_m > config.wrong_translation_m || error_deg > config.wrong_rotation_deg;
+    let ad = se3::adjoint(&odometry[k]);
+    let information =
+        ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
+    let kernel = RobustKernel::Cauchy {
+        c: config.robust_scale,
+    };
+    graph
+        .graph
+        .add_between(j as u64, k as u64, j_from_k, information, kernel)?;
+    graph.optimize()?;
+    Ok(record)
 }

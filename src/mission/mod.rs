@@ -82,6 +82,10 @@ pub struct MissionConfig {
     pub loop_closures: bool,
     /// Loop closures: the earlier map ends this many seconds before the submap starts.
     pub loop_closure_gap_s: f64,
+    /// Loop closures: the start map holds the frames before the rover moved this far (m).
+    pub start_map_max_motion_m: f64,
+    /// Loop closures: … or turned this much (degrees) from its known start.
+    pub start_map_max_turn_deg: f64,
     /// Multiplies the relocalizer's information before it enters the graph (< 1: trust the
     /// submap less, since its odometry drifted within the window).
     pub relocalization_information_scale: f64,
@@ -119,6 +123,8 @@ impl Default for MissionConfig {
             submap_window_s: 25.0,
             loop_closures: true,
             loop_closure_gap_s: 30.0,
+            start_map_max_motion_m: 0.3,
+            start_map_max_turn_deg: 15.0,
             relocalization_information_scale: 1.0,
             robust_scale: 3.0,
             vo_translation_sigma_m_per_m: 0.015,
@@ -155,6 +161,8 @@ impl MissionConfig {
         let positive = [
             self.relocalization_information_scale,
             self.robust_scale,
+            self.start_map_max_motion_m,
+            self.start_map_max_turn_deg,
             self.vo_translation_sigma_m_per_m,
             self.vo_yaw_sigma_rad_per_m,
             self.vo_yaw_sigma_per_rad_turned,
