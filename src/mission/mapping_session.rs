@@ -109,7 +109,8 @@ fn loop_closures(
     Ok(attempts)
 }
 
-/// The frames taken before the rover moved more than 0.3 m or turned more than 15° from its
+/// The frames taken before the rover moved more than `start_map_max_motion_m` or turned more
+/// than `start_map_max_turn_deg` from its
 /// start (by odometry): their end index.
 fn start_frames(log: &SessionLog, config: &MissionConfig) -> usize {
     let Some(first) = log.ticks.first() else {
