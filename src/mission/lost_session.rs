@@ -83,11 +83,29 @@ fn attempt(
 ) -> Result<bool, MissionError> {
     let k = log.frames.len() - 1;
     let now_s = log.frames[k].time_s;
-    let first = log
+    let mut first = log
         .frames
         .iter()
         .position(|f| f.time_s >= now_s - config.submap_window_s)
         .unwrap_or(0);
+    // odometry's yaw error grows with the angle turned: keep the submap to the frames within
+    // `submap_max_turn_deg` of turning back from now (but at least `submap_min_window_s`)
+    let mut turned = 0.0;
+    let mut j = k;
+    while j > first {
+        let (a, b) = (log.frames[j - 1].tick, log.frames[j].tick);
+        turned += (a..b)
+            .filter_map(|t| log.ticks.get(t + 1))
+            .map(|t| t.vo_prev_from_cur.rotation.euler_angles().2.abs())
+            .sum::<f64>();
+        if turned > config.submap_max_turn_deg.to_radians()
+            && now_s - log.frames[j].time_s >= config.submap_min_window_s
+        {
+            break;
+        }
+        j -= 1;
+    }
+    first = j;
     // the submap in the odometry frame (the raw odometry estimate, as logged)
     let odometry: Vec<Isometry3<f64>> = log
         .frames
@@ -107,6 +125,7 @@ fn attempt(
         error_deg: None,
         error_yaw_deg: None,
         wrong: false,
+        yaw_sigma_deg: None,
     };
     let result = relocalizer.relocalize(&query);
     let reloc = match result {
@@ -118,6 +137,7 @@ fn attempt(
         }
     };
     record.inliers = reloc.inliers.len();
+    record.yaw_sigma_deg = Some(yaw_sigma_deg(&reloc.information));
     let Some(prior_from_odom) = reloc.prior_from_query else {
         record.refusal = Some(
             reloc
@@ -169,4 +189,14 @@ fn world_from_session_estimate(
     let tick = log.frames.get(k)?.tick;
     let session_from_rover = log.ticks.get(tick)?.session_from_rover;
     Some(odom_from_prior.inverse() * odom_from_rover * session_from_rover.inverse())
+}
+
+/// Standard deviation of the yaw (rotation about z, tangent index 2) implied by an
+/// information matrix, degrees (infinite when it is singular).
+pub fn yaw_sigma_deg(information: &nalgebra::Matrix6<f64>) -> f64 {
+    information
+        .try_inverse()
+        .map(|c| c[(2, 2)])
+        .filter(|v| v.is_finite() && *v >= 0.0)
+        .map_or(f64::INFINITY, |v| v.sqrt().to_degrees())
 }

@@ -175,6 +175,7 @@ fn close_loop(
         error_deg: None,
         error_yaw_deg: None,
         wrong: false,
+        yaw_sigma_deg: None,
     };
     let reloc = match Relocalizer::new(old.clone(), config.relocalize.clone())
         .and_then(|r| r.relocalize(&query))

@@ -78,6 +78,11 @@ pub struct MissionConfig {
     pub relocalize_period_s: f64,
     /// Seconds of recent detections in a relocalization submap.
     pub submap_window_s: f64,
+    /// A submap stops (going back in time) once the rover turned this much in it, degrees
+    /// (odometry's yaw error grows with the angle turned and bends the submap).
+    pub submap_max_turn_deg: f64,
+    /// … but spans at least this many seconds.
+    pub submap_min_window_s: f64,
     /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
     pub loop_closures: bool,
     /// Loop closures: the earlier map ends this many seconds before the submap starts.
@@ -121,6 +126,8 @@ impl Default for MissionConfig {
             guess_error_2: [0.8, -0.6, 0.25],
             relocalize_period_s: 10.0,
             submap_window_s: 25.0,
+            submap_max_turn_deg: 180.0,
+            submap_min_window_s: 10.0,
             loop_closures: true,
             loop_closure_gap_s: 30.0,
             start_map_max_motion_m: 2.0,
@@ -155,6 +162,9 @@ impl MissionConfig {
         if !(self.submap_window_s.is_finite() && self.submap_window_s > 0.0) {
             return bad("submap_window_s must be positive");
         }
+        if !(self.submap_min_window_s.is_finite() && self.submap_min_window_s >= 0.0) {
+            return bad("submap_min_window_s must be non-negative");
+        }
         if !(self.loop_closure_gap_s.is_finite() && self.loop_closure_gap_s >= 0.0) {
             return bad("loop_closure_gap_s must be non-negative");
         }
@@ -163,6 +173,7 @@ impl MissionConfig {
             self.robust_scale,
             self.start_map_max_motion_m,
             self.start_map_max_turn_deg,
+            self.submap_max_turn_deg,
             self.vo_translation_sigma_m_per_m,
             self.vo_yaw_sigma_rad_per_m,
             self.vo_yaw_sigma_per_rad_turned,

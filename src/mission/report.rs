@@ -36,6 +36,8 @@ pub struct Attempt {
     pub error_yaw_deg: Option<f64>,
     /// Accepted but off by more than the mission's thresholds.
     pub wrong: bool,
+    /// The relocalizer's yaw standard deviation (from its information), degrees.
+    pub yaw_sigma_deg: Option<f64>,
 }
 
 /// Relocalization counts.
