@@ -20,6 +20,7 @@ pub mod io;
 pub mod landmarks;
 pub mod mapping;
 pub mod merge;
+pub mod mission;
 pub mod perception;
 pub mod planning;
 pub mod relocalize;

@@ -8,6 +8,7 @@ mod eval;
 mod graph;
 mod grid;
 mod map;
+mod mission;
 mod relocalize;
 mod sim;
 
@@ -58,6 +59,8 @@ pub enum Command {
     /// Simulation on the synthetic moon.
     #[command(subcommand)]
     Sim(sim::SimCommand),
+    /// The two-session mission on the synthetic moon: map, relocalize, LAC maps scored.
+    Mission(mission::MissionArgs),
 }
 
 /// Run a parsed command line; returns the exit code.
@@ -74,6 +77,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Grid(cmd) => grid::run(&cmd),
         Command::Detect(args) => detect::run(&args),
         Command::Sim(cmd) => sim::run(&cmd),
+        Command::Mission(args) => mission::run(&args, &config, cli.config.is_some()),
     }
 }
 

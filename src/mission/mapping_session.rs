@@ -1,0 +1,232 @@
+//! Session 1: start at a known pose, drive, and build the boulder map every later session
+//! relocalizes against (in the optimised session frame, which is the world frame up to
+//! drift since the start is known).
+
+use super::trajectory::{
+    detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
+};
+use super::{Attempt, MissionConfig, MissionError};
+use crate::graph::{se3, RobustKernel};
+use crate::landmarks::{fuse_detections, FusionConfig};
+use crate::relocalize::Relocalizer;
+use crate::sim::moon::Moon;
+use crate::sim::session::{run_session, SessionConfig, SessionLog};
+use nalgebra::Isometry3;
+use segloc_maps::ObjectMap;
+
+/// What session 1 produced.
+pub struct MappedSession {
+    /// The simulation log.
+    pub log: SessionLog,
+    /// Optimised `world_from_rover` of every frame.
+    pub poses: Vec<Isometry3<f64>>,
+    /// The boulder map (world frame), the prior of later sessions.
+    pub map: ObjectMap,
+    /// Loop-closure attempts (recent submaps against the session's own earlier map).
+    pub attempts: Vec<Attempt>,
+}
+
+/// Run session 1 from `start` for the mission's duration and build its map.
+pub fn map_session(
+    moon: &Moon,
+    config: &MissionConfig,
+    start: [f64; 3],
+    seed: u64,
+) -> Result<MappedSession, MissionError> {
+    let session = SessionConfig {
+        duration_s: config.seconds_per_session,
+        start,
+        initial_guess: None,
+        ..config.session.clone()
+    };
+    let log = run_session(moon, &session, seed)?;
+    let mut graph = TrajectoryGraph::new();
+    graph.extend(&log, config)?;
+    let attempts = if config.loop_closures {
+        loop_closures(&log, config, &mut graph)?
+    } else {
+        Vec::new()
+    };
+    graph.optimize()?;
+    let poses = graph.poses_in_prior();
+    let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
+    let map = fuse_detections(&set, &config.fusion);
+    Ok(MappedSession {
+        log,
+        poses,
+        map,
+        attempts,
+    })
+}
+
+/// Every `relocalize_period_s`, relocalize the submap of the last `submap_window_s` against
+/// (1) the *start map*, the detections of the frames before the rover moved or turned much
+/// (their poses are known almost exactly from the known start, so a match there fixes the
+/// yaw the odometry lost while turning on the spot), and (2) the map of the frames older
+/// than `loop_closure_gap_s` before the submap. Both maps are placed with the current
+/// estimate (earlier closures applied, re-optimised after each). An accepted result becomes a
+/// between factor from the earlier frame nearest the matched landmarks (frame 0 for the
+/// start map) to the submap frame nearest its matched landmarks.
+fn loop_closures(
+    log: &SessionLog,
+    config: &MissionConfig,
+    graph: &mut TrajectoryGraph,
+) -> Result<Vec<Attempt>, MissionError> {
+    let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
+    let start_end = start_frames(log, config);
+    let mut attempts = Vec::new();
+    let mut t = config.relocalize_period_s;
+    let end = log.frames.last().map_or(0.0, |f| f.time_s);
+    while t <= end + 1e-9 {
+        let now = t;
+        t += config.relocalize_period_s;
+        let Some(k) = log.frames.iter().rposition(|f| f.time_s <= now + 1e-9) else {
+            continue;
+        };
+        let first = frame_at(now - config.submap_window_s).unwrap_or(0);
+        let Some(old_end) = frame_at(now - config.submap_window_s - config.loop_closure_gap_s)
+        else {
+            continue;
+        };
+        if old_end < 10 {
+            continue;
+        }
+        if start_end > 0 && start_end < first {
+            let reference = Reference {
+                frames: 0..start_end,
+                fixed_frame: Some(0),
+                min_observations: 1,
+            };
+            attempts.push(close_loop(log, config, graph, &reference, first..k + 1)?);
+        }
+        let reference = Reference {
+            frames: 0..old_end,
+            fixed_frame: None,
+            min_observations: config.fusion.min_observations,
+        };
+        attempts.push(close_loop(log, config, graph, &reference, first..k + 1)?);
+    }
+    Ok(attempts)
+}
+
+/// The frames taken before the rover moved more than `start_map_max_motion_m` or turned more
+/// than `start_map_max_turn_deg` from its
+/// start (by odometry): their end index.
+fn start_frames(log: &SessionLog, config: &MissionConfig) -> usize {
+    let Some(first) = log.ticks.first() else {
+        return 0;
+    };
+    let moved = |t: &crate::sim::session::TickRecord| {
+        let d = first.session_from_rover.inverse() * t.session_from_rover;
+        d.translation.vector.xy().norm() > config.start_map_max_motion_m
+            || d.rotation.euler_angles().2.abs() > config.start_map_max_turn_deg.to_radians()
+    };
+    log.frames
+        .iter()
+        .position(|f| log.ticks.get(f.tick).is_none_or(moved))
+        .unwrap_or(log.frames.len())
+}
+
+/// What a submap is relocalized against.
+struct Reference {
+    /// Frames whose detections make the map.
+    frames: std::ops::Range<usize>,
+    /// The earlier end of the factor, if fixed (otherwise nearest the matched landmarks).
+    fixed_frame: Option<usize>,
+    /// Fusion's minimum observations for this map.
+    min_observations: u32,
+}
+
+fn close_loop(
+    log: &SessionLog,
+    config: &MissionConfig,
+    graph: &mut TrajectoryGraph,
+    reference: &Reference,
+    recent: std::ops::Range<usize>,
+) -> Result<Attempt, MissionError> {
+    let odometry = graph.poses_in_prior();
+    let fusion = FusionConfig {
+        min_observations: reference.min_observations,
+        ..config.fusion.clone()
+    };
+    let old = fuse_detections(
+        &detections_with_poses(
+            log,
+            &odometry,
+            reference.frames.clone(),
+            "session1-old",
+            "odom",
+        ),
+        &fusion,
+    );
+    let query = fuse_detections(
+        &detections_with_poses(log, &odometry, recent.clone(), "session1-recent", "odom"),
+        &config.fusion,
+    );
+    let last = recent.end.saturating_sub(1);
+    let mut record = Attempt {
+        session: 1,
+        time_s: log.frames.get(last).map_or(0.0, |f| f.time_s),
+        query_landmarks: query.len(),
+        accepted: false,
+        refusal: None,
+        inliers: 0,
+        error_m: None,
+        error_deg: None,
+        error_yaw_deg: None,
+        wrong: false,
+        yaw_sigma_deg: None,
+    };
+    let reloc = match Relocalizer::new(old.clone(), config.relocalize.clone())
+        .and_then(|r| r.relocalize(&query))
+    {
+        Ok(r) => r,
+        Err(e) => {
+            record.refusal = Some(format!("error: {e}"));
+            return Ok(record);
+        }
+    };
+    record.inliers = reloc.inliers.len();
+    let Some(old_from_recent) = reloc.prior_from_query else {
+        record.refusal = Some(
+            reloc
+                .refusal
+                .as_ref()
+                .map_or_else(|| "refused".to_string(), |r| r.to_string()),
+        );
+        return Ok(record);
+    };
+    // the earlier frame nearest the matched landmarks of the old map, and the recent frame
+    // nearest the matched landmarks of the submap (least drift relative to them)
+    let matched_old = landmark_positions(&old, reloc.inliers.iter().map(|(p, _)| *p));
+    let matched_new = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
+    let j = reference
+        .fixed_frame
+        .unwrap_or_else(|| frame_nearest(&odometry, reference.frames.clone(), &matched_old));
+    let k = frame_nearest(&odometry, recent, &matched_new);
+    let j_from_k = odometry[j].inverse() * old_from_recent * odometry[k];
+    let truth = log
+        .true_motion_between(log.frames[j].tick, log.frames[k].tick)
+        .unwrap_or_else(Isometry3::identity);
+    let error = truth.inverse() * j_from_k;
+    let (error_m, error_deg) = (
+        error.translation.vector.norm(),
+        error.rotation.angle().to_degrees(),
+    );
+    record.accepted = true;
+    record.error_m = Some(error_m);
+    record.error_deg = Some(error_deg);
+    record.error_yaw_deg = Some(error.rotation.euler_angles().2.to_degrees());
+    record.wrong = error_m > config.wrong_translation_m || error_deg > config.wrong_rotation_deg;
+    let ad = se3::adjoint(&odometry[k]);
+    let information =
+        ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
+    let kernel = RobustKernel::Cauchy {
+        c: config.robust_scale,
+    };
+    graph
+        .graph
+        .add_between(j as u64, k as u64, j_from_k, information, kernel)?;
+    graph.optimize()?;
+    Ok(record)
+}

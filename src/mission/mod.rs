@@ -1,0 +1,282 @@
+//! The two-session mission (issue 4): session 1 maps the site from a known start, session 2
+//! starts lost and finds itself from the boulders, and the LAC height and rock maps are
+//! built from the optimised poses of both and scored against the synthetic moon's truth.
+//!
+//! Stages, one file each:
+//! - [`mapping_session`]: session 1 — drive, pose graph of odometry anchored at the known
+//!   start, boulder map fused in the optimised (world) frame;
+//! - [`lost_session`]: session 2 — drive with a wrong start guess, relocalize submaps of the
+//!   recent detections against session 1's map, relocalization factors, re-optimise, tell
+//!   the planner;
+//! - [`trajectory`]: the per-session pose graph and trajectory error;
+//! - [`maps`]: height and rock maps, LAC score;
+//! - [`report`]: the JSON report and the pictures.
+//!
+//! ```no_run
+//! use segloc::mission::{run_mission, MissionConfig};
+//! let report = run_mission(7, &MissionConfig::default()).unwrap();
+//! println!("{}", serde_json::to_string(&report.report).unwrap());
+//! ```
+
+pub mod lost_session;
+pub mod mapping_session;
+pub mod maps;
+pub mod report;
+pub mod trajectory;
+
+use crate::graph::GraphError;
+use crate::landmarks::FusionConfig;
+use crate::mapping::{RockGridConfig, ScoreError};
+use crate::relocalize::{RelocalizeConfig, RelocalizeError, Relocalizer};
+use crate::sim::moon::{Moon, MoonConfig, MoonError};
+use crate::sim::session::{SessionConfig, SessionError};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+pub use report::{Attempt, MissionOutput, MissionReport, RelocalizationCounts, SessionReport};
+
+/// Errors running a mission.
+#[derive(Debug, thiserror::Error)]
+pub enum MissionError {
+    /// A configuration value is out of range.
+    #[error("invalid mission configuration: {0}")]
+    InvalidConfig(String),
+    /// The moon could not be generated.
+    #[error(transparent)]
+    Moon(#[from] MoonError),
+    /// A session could not start.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// The pose graph failed.
+    #[error("pose graph: {0}")]
+    Graph(#[from] GraphError),
+    /// The relocalizer could not be prepared.
+    #[error(transparent)]
+    Relocalize(#[from] RelocalizeError),
+    /// The maps could not be scored.
+    #[error(transparent)]
+    Score(#[from] ScoreError),
+}
+
+/// Parameters of a mission.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MissionConfig {
+    /// Simulated seconds per session.
+    pub seconds_per_session: f64,
+    /// The synthetic moon.
+    pub moon: MoonConfig,
+    /// Session parameters (start and duration are set by the mission).
+    pub session: SessionConfig,
+    /// Session 1's start, world frame [x, y, yaw] (moved to the nearest clear ground).
+    pub start_1: [f64; 3],
+    /// Session 2's true start, world frame [x, y, yaw] (moved to the nearest clear ground).
+    pub start_2: [f64; 3],
+    /// Error of session 2's start guess [dx, dy, dyaw] (m, m, rad).
+    pub guess_error_2: [f64; 3],
+    /// Seconds between relocalization attempts of session 2.
+    pub relocalize_period_s: f64,
+    /// Seconds of recent detections in a relocalization submap.
+    pub submap_window_s: f64,
+    /// A submap stops (going back in time) once the rover turned this much in it, degrees
+    /// (odometry's yaw error grows with the angle turned and bends the submap).
+    pub submap_max_turn_deg: f64,
+    /// … but spans at least this many seconds.
+    pub submap_min_window_s: f64,
+    /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
+    pub loop_closures: bool,
+    /// Loop closures: the earlier map ends this many seconds before the submap starts.
+    pub loop_closure_gap_s: f64,
+    /// Loop closures: the start map holds the frames before the rover moved this far (m).
+    pub start_map_max_motion_m: f64,
+    /// Loop closures: … or turned this much (degrees) from its known start.
+    pub start_map_max_turn_deg: f64,
+    /// Multiplies the relocalizer's information before it enters the graph (< 1: trust the
+    /// submap less, since its odometry drifted within the window).
+    pub relocalization_information_scale: f64,
+    /// Scale (Mahalanobis distance) of the Cauchy kernel on loop-closure and relocalization
+    /// factors.
+    pub robust_scale: f64,
+    /// Odometry translation noise per metre driven, 1 σ (graph weights).
+    pub vo_translation_sigma_m_per_m: f64,
+    /// Odometry yaw noise per metre driven, 1 σ (graph weights).
+    pub vo_yaw_sigma_rad_per_m: f64,
+    /// Odometry yaw noise per radian turned, 1 σ (graph weights).
+    pub vo_yaw_sigma_per_rad_turned: f64,
+    /// An accepted relocalization off by more than this (m) counts as wrong.
+    pub wrong_translation_m: f64,
+    /// An accepted relocalization off by more than this (degrees) counts as wrong.
+    pub wrong_rotation_deg: f64,
+    /// Boulder fusion (maps and submaps).
+    pub fusion: FusionConfig,
+    /// Relocalization.
+    pub relocalize: RelocalizeConfig,
+    /// Rock map from fused boulders.
+    pub rock_grid: RockGridConfig,
+}
+
+impl Default for MissionConfig {
+    fn default() -> Self {
+        Self {
+            seconds_per_session: 300.0,
+            moon: MoonConfig::default(),
+            session: SessionConfig::default(),
+            start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
+            start_2: [-4.5, 0.0, -std::f64::consts::FRAC_PI_2],
+            guess_error_2: [0.8, -0.6, 0.25],
+            relocalize_period_s: 10.0,
+            submap_window_s: 25.0,
+            submap_max_turn_deg: 180.0,
+            submap_min_window_s: 10.0,
+            loop_closures: true,
+            loop_closure_gap_s: 30.0,
+            start_map_max_motion_m: 2.0,
+            start_map_max_turn_deg: 90.0,
+            relocalization_information_scale: 1.0,
+            robust_scale: 3.0,
+            vo_translation_sigma_m_per_m: 0.015,
+            vo_yaw_sigma_rad_per_m: 0.003,
+            vo_yaw_sigma_per_rad_turned: 0.005,
+            wrong_translation_m: 0.10,
+            wrong_rotation_deg: 1.0,
+            fusion: FusionConfig::default(),
+            relocalize: RelocalizeConfig::default(),
+            rock_grid: RockGridConfig::default(),
+        }
+    }
+}
+
+impl MissionConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), MissionError> {
+        let bad = |m: &str| Err(MissionError::InvalidConfig(m.to_string()));
+        if !(self.seconds_per_session.is_finite()
+            && self.seconds_per_session > 0.0
+            && self.seconds_per_session <= 1e5)
+        {
+            return bad("seconds_per_session must be within (0, 1e5]");
+        }
+        if !(self.relocalize_period_s.is_finite() && self.relocalize_period_s >= 1.0) {
+            return bad("relocalize_period_s must be at least 1");
+        }
+        if !(self.submap_window_s.is_finite() && self.submap_window_s > 0.0) {
+            return bad("submap_window_s must be positive");
+        }
+        if !(self.submap_min_window_s.is_finite() && self.submap_min_window_s >= 0.0) {
+            return bad("submap_min_window_s must be non-negative");
+        }
+        if !(self.loop_closure_gap_s.is_finite() && self.loop_closure_gap_s >= 0.0) {
+            return bad("loop_closure_gap_s must be non-negative");
+        }
+        let positive = [
+            self.relocalization_information_scale,
+            self.robust_scale,
+            self.start_map_max_motion_m,
+            self.start_map_max_turn_deg,
+            self.submap_max_turn_deg,
+            self.vo_translation_sigma_m_per_m,
+            self.vo_yaw_sigma_rad_per_m,
+            self.vo_yaw_sigma_per_rad_turned,
+            self.wrong_translation_m,
+            self.wrong_rotation_deg,
+        ];
+        if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return bad("information scale, odometry sigmas and wrong thresholds must be positive");
+        }
+        let all = self
+            .start_1
+            .iter()
+            .chain(&self.start_2)
+            .chain(&self.guess_error_2);
+        if all.clone().any(|v| !v.is_finite()) {
+            return bad("starts and guess error must be finite");
+        }
+        Ok(())
+    }
+}
+
+/// Run the two-session mission on the moon of `seed`.
+pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, MissionError> {
+    config.validate()?;
+    let started = Instant::now();
+    let moon = Moon::generate(&config.moon, seed)?;
+    let min_rock = config.session.collision_min_rock_radius_m;
+    let clear = |s: [f64; 3]| {
+        let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
+        [x, y, s[2]]
+    };
+    let start_1 = clear(config.start_1);
+    let start_2 = clear(config.start_2);
+    let e = config.guess_error_2;
+    let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
+
+    let session_1 = mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2))?;
+    let relocalizer = Relocalizer::new(session_1.map.clone(), config.relocalize.clone())?;
+    let session_2 = lost_session::localize_session(
+        &moon,
+        config,
+        &relocalizer,
+        start_2,
+        guess_2,
+        seed.wrapping_mul(2).wrapping_add(1),
+    )?;
+
+    let truth = moon.ground_truth_grid();
+    let mission_seconds = 2.0 * config.seconds_per_session;
+    let maps = maps::build_maps(
+        &[
+            (&session_1.log, &session_1.poses),
+            (&session_2.log, &session_2.poses),
+        ],
+        &truth,
+        mission_seconds,
+        config,
+    )?;
+    let wall_s = started.elapsed().as_secs_f64();
+    Ok(report::assemble(
+        seed, config, &session_1, &session_2, maps, truth, wall_s,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_config_is_valid_and_round_trips_through_toml() {
+        let c = MissionConfig::default();
+        c.validate().unwrap();
+        let text = toml::to_string(&c).unwrap();
+        let back: MissionConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+        let partial: MissionConfig = toml::from_str("seconds_per_session = 60.0").unwrap();
+        assert_eq!(partial.seconds_per_session, 60.0);
+    }
+
+    #[test]
+    fn rejects_bad_config() {
+        for bad in [
+            MissionConfig {
+                seconds_per_session: f64::NAN,
+                ..MissionConfig::default()
+            },
+            MissionConfig {
+                relocalize_period_s: 0.0,
+                ..MissionConfig::default()
+            },
+            MissionConfig {
+                robust_scale: -1.0,
+                ..MissionConfig::default()
+            },
+            MissionConfig {
+                guess_error_2: [f64::INFINITY, 0.0, 0.0],
+                ..MissionConfig::default()
+            },
+        ] {
+            assert!(matches!(
+                run_mission(1, &bad),
+                Err(MissionError::InvalidConfig(_))
+            ));
+        }
+    }
+}

@@ -1,0 +1,302 @@
+//! The mission report (JSON) and its pictures.
+
+use super::lost_session::LocalizedSession;
+use super::mapping_session::MappedSession;
+use super::maps::MissionMaps;
+use super::trajectory::{odometry_in_world, rmse_m};
+use super::MissionConfig;
+use crate::mapping::pictures::{height_error_png, rock_map_png, trajectory_png, Polyline};
+use crate::mapping::LacScore;
+use crate::sim::session::SessionLog;
+use nalgebra::Isometry3;
+use segloc_maps::LacGrid;
+use serde::Serialize;
+use std::path::Path;
+
+/// One relocalization attempt.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Attempt {
+    /// Session number (1-based).
+    pub session: usize,
+    /// Session time of the submap's last frame, seconds.
+    pub time_s: f64,
+    /// Landmarks in the submap.
+    pub query_landmarks: usize,
+    /// Whether the relocalizer accepted.
+    pub accepted: bool,
+    /// Why it refused.
+    pub refusal: Option<String>,
+    /// Inlier associations.
+    pub inliers: usize,
+    /// Accepted: position error of the relocalized rover pose against the truth, metres.
+    pub error_m: Option<f64>,
+    /// Accepted: rotation error, degrees.
+    pub error_deg: Option<f64>,
+    /// Accepted: the yaw part of the rotation error, degrees.
+    pub error_yaw_deg: Option<f64>,
+    /// Accepted but off by more than the mission's thresholds.
+    pub wrong: bool,
+    /// The relocalizer's yaw standard deviation (from its information), degrees.
+    pub yaw_sigma_deg: Option<f64>,
+}
+
+/// Relocalization counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct RelocalizationCounts {
+    /// Accepted attempts.
+    pub accepted: usize,
+    /// Refused attempts.
+    pub refused: usize,
+    /// Accepted but wrong (> 10 cm or > 1° off).
+    pub wrong_accepted: usize,
+}
+
+impl RelocalizationCounts {
+    fn of(attempts: &[Attempt]) -> Self {
+        Self {
+            accepted: attempts.iter().filter(|a| a.accepted).count(),
+            refused: attempts.iter().filter(|a| !a.accepted).count(),
+            wrong_accepted: attempts.iter().filter(|a| a.accepted && a.wrong).count(),
+        }
+    }
+}
+
+/// One session's figures.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SessionReport {
+    /// Session number (1-based).
+    pub session: usize,
+    /// Simulated seconds.
+    pub duration_s: f64,
+    /// Distance driven, metres.
+    pub distance_m: f64,
+    /// Position RMSE over the frames with the global factors, metres.
+    pub rmse_m: f64,
+    /// Position RMSE of odometry alone, aligned at the true start, metres.
+    pub rmse_without_global_m: f64,
+    /// Distinct collision events.
+    pub collisions: usize,
+    /// Boulder detections.
+    pub detections: usize,
+    /// Relocalization attempts of this session.
+    pub relocalizations: RelocalizationCounts,
+    /// Wall-clock seconds simulating.
+    pub simulation_wall_s: f64,
+}
+
+/// The LAC score summary.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LacSummary {
+    /// Geometric points (of 300).
+    pub geometric: f64,
+    /// Rock points (of 300).
+    pub rocks: f64,
+    /// Productivity points.
+    pub productivity: f64,
+    /// Total.
+    pub total: f64,
+    /// Rock precision.
+    pub rock_precision: f64,
+    /// Rock recall.
+    pub rock_recall: f64,
+    /// Boulders in the fused map of both sessions.
+    pub landmarks: usize,
+}
+
+/// The whole report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MissionReport {
+    /// Moon and mission seed.
+    pub seed: u64,
+    /// Per session.
+    pub sessions: Vec<SessionReport>,
+    /// LAC scores.
+    pub lac: LacSummary,
+    /// All relocalization attempts counted (session 1's loop closures and session 2's
+    /// relocalizations against session 1's map).
+    pub relocalizations: RelocalizationCounts,
+    /// Every attempt.
+    pub attempts: Vec<Attempt>,
+    /// Collisions of both sessions.
+    pub collisions: usize,
+    /// Simulated seconds per wall-clock second, whole mission.
+    pub realtime_factor: f64,
+    /// Wall-clock seconds of the whole mission.
+    pub wall_s: f64,
+    /// Boulders in session 1's map (the prior).
+    pub prior_landmarks: usize,
+    /// The configuration.
+    pub config: MissionConfig,
+}
+
+/// A session's true and estimated xy of every frame.
+pub type TrajectoryPair = (Vec<(f64, f64)>, Vec<(f64, f64)>);
+
+/// The report with what the pictures need.
+pub struct MissionOutput {
+    /// The report.
+    pub report: MissionReport,
+    /// The mission's grid (heights and rocks).
+    pub grid: LacGrid,
+    /// The ground truth.
+    pub truth: LacGrid,
+    /// The full score.
+    pub score: LacScore,
+    /// Per session: true and estimated xy of every frame.
+    pub trajectories: Vec<TrajectoryPair>,
+}
+
+fn session_report(
+    n: usize,
+    log: &SessionLog,
+    poses: &[Isometry3<f64>],
+    attempts: &[Attempt],
+) -> SessionReport {
+    let s = log.summary();
+    SessionReport {
+        session: n,
+        duration_s: s.duration_s,
+        distance_m: s.distance_m,
+        rmse_m: rmse_m(log, poses),
+        rmse_without_global_m: rmse_m(log, &odometry_in_world(log)),
+        collisions: s.collisions,
+        detections: s.detections,
+        relocalizations: RelocalizationCounts::of(attempts),
+        simulation_wall_s: log.wall_time_s,
+    }
+}
+
+fn xy(poses: impl Iterator<Item = Isometry3<f64>>) -> Vec<(f64, f64)> {
+    poses
+        .map(|p| (p.translation.vector.x, p.translation.vector.y))
+        .collect()
+}
+
+/// Put the report together.
+pub(super) fn assemble(
+    seed: u64,
+    config: &MissionConfig,
+    one: &MappedSession,
+    two: &LocalizedSession,
+    maps: MissionMaps,
+    truth: LacGrid,
+    wall_s: f64,
+) -> MissionOutput {
+    let sessions = vec![
+        session_report(1, &one.log, &one.poses, &one.attempts),
+        session_report(2, &two.log, &two.poses, &two.attempts),
+    ];
+    let collisions = sessions.iter().map(|s| s.collisions).sum();
+    let simulated: f64 = sessions.iter().map(|s| s.duration_s).sum();
+    let s = &maps.score;
+    let attempts: Vec<Attempt> = one.attempts.iter().chain(&two.attempts).cloned().collect();
+    let trajectories = [(&one.log, &one.poses), (&two.log, &two.poses)]
+        .iter()
+        .map(|(log, poses)| {
+            let truth = xy(log
+                .frames
+                .iter()
+                .filter_map(|f| log.ticks.get(f.tick))
+                .map(|t| t.world_from_rover));
+            (truth, xy(poses.iter().copied()))
+        })
+        .collect();
+    MissionOutput {
+        report: MissionReport {
+            seed,
+            sessions,
+            lac: LacSummary {
+                geometric: s.geometric,
+                rocks: s.rocks,
+                productivity: s.productivity,
+                total: s.total,
+                rock_precision: s.rock_precision,
+                rock_recall: s.rock_recall,
+                landmarks: maps.landmarks,
+            },
+            relocalizations: RelocalizationCounts::of(&attempts),
+            attempts,
+            collisions,
+            realtime_factor: simulated / wall_s.max(1e-9),
+            wall_s,
+            prior_landmarks: one.map.len(),
+            config: config.clone(),
+        },
+        grid: maps.grid,
+        truth,
+        score: maps.score,
+        trajectories,
+    }
+}
+
+/// Errors writing the outputs.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The directory could not be created.
+    #[error("cannot create {path}: {message}")]
+    Directory {
+        /// The directory.
+        path: String,
+        /// Why.
+        message: String,
+    },
+    /// A picture failed.
+    #[error(transparent)]
+    Picture(#[from] crate::mapping::raster::PictureError),
+    /// The report failed.
+    #[error(transparent)]
+    Map(#[from] segloc_maps::MapError),
+    /// The report could not be serialised.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+}
+
+impl MissionOutput {
+    /// Write `report.json`, `height_error.png`, `rock_map.png` and `trajectories.png` into
+    /// `dir` (created if missing), each file atomically.
+    pub fn write(&self, dir: &Path) -> Result<(), OutputError> {
+        std::fs::create_dir_all(dir).map_err(|e| OutputError::Directory {
+            path: dir.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let r = &self.report;
+        height_error_png(
+            &self.grid,
+            &self.truth,
+            &format!("HEIGHT SEED {} GEOMETRIC {:.0}", r.seed, r.lac.geometric),
+            &dir.join("height_error.png"),
+        )?;
+        rock_map_png(
+            &self.grid,
+            &self.truth,
+            &format!("ROCKS SEED {} SCORE {:.0}", r.seed, r.lac.rocks),
+            &dir.join("rock_map.png"),
+        )?;
+        let colours = [
+            ([40, 40, 40], [30, 120, 255]),
+            ([120, 120, 120], [255, 140, 0]),
+        ];
+        let mut lines = Vec::new();
+        for (k, ((truth, est), (ct, ce))) in self.trajectories.iter().zip(colours).enumerate() {
+            lines.push(Polyline {
+                label: format!("S{} TRUE", k + 1),
+                colour: ct,
+                points_xy: truth.clone(),
+            });
+            lines.push(Polyline {
+                label: format!("S{} EST", k + 1),
+                colour: ce,
+                points_xy: est.clone(),
+            });
+        }
+        trajectory_png(
+            &self.truth,
+            &lines,
+            &format!("TRAJECTORIES SEED {}", r.seed),
+            &dir.join("trajectories.png"),
+        )?;
+        let json = serde_json::to_vec_pretty(r)?;
+        segloc_maps::write_atomic(&dir.join("report.json"), &json)?;
+        Ok(())
+    }
+}

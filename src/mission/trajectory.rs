@@ -1,0 +1,333 @@
+//! A session's trajectory as a pose graph: one pose per camera frame (1 Hz), tied by the
+//! visual odometry between consecutive frames, anchored at the first frame; relocalization
+//! and loop-closure factors are added by the stages that find them.
+
+use crate::graph::{GraphError, PoseGraph, RobustKernel, SolverConfig};
+use crate::sim::session::SessionLog;
+use nalgebra::{Isometry3, Matrix6, Point3};
+use segloc_maps::{Detection, DetectionSet};
+
+/// Frame id of the prior map (session 1's map) in a session's graph.
+pub const PRIOR_FRAME: u64 = 0;
+
+/// Information of one odometry step between frames (rotation, translation order): the
+/// gravity fixes roll and pitch well; yaw drifts with the distance driven and the angle
+/// turned, translation with the distance.
+pub fn odometry_information(
+    distance_m: f64,
+    turned_rad: f64,
+    config: &super::MissionConfig,
+) -> Matrix6<f64> {
+    let d = distance_m.max(0.05);
+    let sigma_t = config.vo_translation_sigma_m_per_m * d + 1e-3;
+    let sigma_yaw = config.vo_yaw_sigma_rad_per_m * d
+        + config.vo_yaw_sigma_per_rad_turned * turned_rad.abs()
+        + 1e-4;
+    let sigma_tilt = 2e-3;
+    let mut info = Matrix6::zeros();
+    info[(0, 0)] = 1.0 / (sigma_tilt * sigma_tilt);
+    info[(1, 1)] = 1.0 / (sigma_tilt * sigma_tilt);
+    info[(2, 2)] = 1.0 / (sigma_yaw * sigma_yaw);
+    for i in 3..6 {
+        info[(i, i)] = 1.0 / (sigma_t * sigma_t);
+    }
+    info
+}
+
+/// The growing pose graph of one session; the graph's world is the session's odometry
+/// frame (`odom`), pose ids are frame indices into [`SessionLog::frames`].
+pub struct TrajectoryGraph {
+    /// The graph (poses `odom_from_rover`, frame [`PRIOR_FRAME`] = `odom_from_prior`).
+    pub graph: PoseGraph,
+    /// Frames added so far.
+    pub frames: usize,
+    /// Whether the prior map's frame variable exists.
+    pub has_prior_frame: bool,
+}
+
+impl TrajectoryGraph {
+    /// An empty graph.
+    pub fn new() -> Self {
+        Self {
+            graph: PoseGraph::new(),
+            frames: 0,
+            has_prior_frame: false,
+        }
+    }
+
+    /// Add the frames of `log` not yet in the graph, with odometry factors; the first is
+    /// fixed at its odometry estimate.
+    pub fn extend(
+        &mut self,
+        log: &SessionLog,
+        config: &super::MissionConfig,
+    ) -> Result<(), GraphError> {
+        while self.frames < log.frames.len() {
+            let k = self.frames;
+            let tick = log.frames[k].tick;
+            let Some(t) = log.ticks.get(tick) else {
+                break;
+            };
+            let initial = if k == 0 {
+                t.session_from_rover
+            } else {
+                // chain on the optimised previous pose
+                let prev_tick = log.frames[k - 1].tick;
+                let prev = self
+                    .graph
+                    .pose(k as u64 - 1)
+                    .unwrap_or(log.ticks[prev_tick].session_from_rover);
+                prev * log
+                    .odometry_between(prev_tick, tick)
+                    .unwrap_or_else(Isometry3::identity)
+            };
+            self.graph.add_pose(k as u64, initial)?;
+            if k == 0 {
+                self.graph.fix(0)?;
+            } else {
+                let prev_tick = log.frames[k - 1].tick;
+                let z = log
+                    .odometry_between(prev_tick, tick)
+                    .unwrap_or_else(Isometry3::identity);
+                let distance = path_length(log, prev_tick, tick);
+                let turned = angle_turned(log, prev_tick, tick);
+                let info = odometry_information(distance, turned, config);
+                self.graph
+                    .add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
+            }
+            self.frames += 1;
+        }
+        Ok(())
+    }
+
+    /// Add a relocalization of frame `k` against the prior map: `prior_from_rover`
+    /// measured, with its information (the prior frame variable is created on first use,
+    /// initialised from this measurement); returns the factor index.
+    pub fn add_relocalization(
+        &mut self,
+        k: usize,
+        prior_from_rover: Isometry3<f64>,
+        information: Matrix6<f64>,
+    ) -> Result<usize, GraphError> {
+        if !self.has_prior_frame {
+            let odom_from_rover = self
+                .graph
+                .pose(k as u64)
+                .unwrap_or_else(Isometry3::identity);
+            self.graph
+                .add_frame(PRIOR_FRAME, odom_from_rover * prior_from_rover.inverse())?;
+            self.has_prior_frame = true;
+        }
+        self.graph
+            .add_relocalization(k as u64, PRIOR_FRAME, prior_from_rover, information)
+    }
+
+    /// Optimise.
+    pub fn optimize(&mut self) -> Result<(), GraphError> {
+        let config = SolverConfig {
+            log_iterations: false,
+            ..SolverConfig::default()
+        };
+        self.graph.optimize(&config)?;
+        Ok(())
+    }
+
+    /// `odom_from_prior` if known.
+    pub fn odom_from_prior(&self) -> Option<Isometry3<f64>> {
+        self.has_prior_frame
+            .then(|| self.graph.frame(PRIOR_FRAME))
+            .flatten()
+    }
+
+    /// Optimised poses of all frames, in the prior map's frame when it is known (the odometry
+    /// frame otherwise).
+    pub fn poses_in_prior(&self) -> Vec<Isometry3<f64>> {
+        let prior_from_odom = self
+            .odom_from_prior()
+            .map_or_else(Isometry3::identity, |f| f.inverse());
+        (0..self.frames)
+            .map(|k| {
+                prior_from_odom
+                    * self
+                        .graph
+                        .pose(k as u64)
+                        .unwrap_or_else(Isometry3::identity)
+            })
+            .collect()
+    }
+}
+
+impl Default for TrajectoryGraph {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// True horizontal-and-vertical path length between two ticks, from the odometry estimate.
+fn path_length(log: &SessionLog, a: usize, b: usize) -> f64 {
+    (a..b)
+        .filter_map(|k| log.ticks.get(k + 1))
+        .map(|t| t.vo_prev_from_cur.translation.vector.norm())
+        .sum()
+}
+
+/// Absolute yaw turned between two ticks, from the odometry estimate, radians.
+fn angle_turned(log: &SessionLog, a: usize, b: usize) -> f64 {
+    (a..b)
+        .filter_map(|k| log.ticks.get(k + 1))
+        .map(|t| t.vo_prev_from_cur.rotation.euler_angles().2.abs())
+        .sum()
+}
+
+/// The boulder detections of frames `frames` placed with `poses` (one per frame of the
+/// log, `x_from_rover`), as a detection set in frame `frame_name`.
+pub fn detections_with_poses(
+    log: &SessionLog,
+    poses: &[Isometry3<f64>],
+    frames: std::ops::Range<usize>,
+    session: &str,
+    frame_name: &str,
+) -> DetectionSet {
+    let mut set = DetectionSet::new(session, frame_name, true);
+    for k in frames {
+        let (Some(f), Some(pose)) = (log.frames.get(k), poses.get(k)) else {
+            continue;
+        };
+        let rover = Point3::from(pose.translation.vector);
+        for b in &f.boulders {
+            set.detections.push(Detection {
+                frame: f.tick as u64,
+                p_world: pose * b.p_rover,
+                rover_position: Some(rover),
+                size_m: Some(2.0 * b.radius_m),
+                score: None,
+            });
+        }
+    }
+    set
+}
+
+/// Root-mean-square horizontal-and-vertical position error of `world_from_rover`
+/// estimates (one per frame) against the truth.
+pub fn rmse_m(log: &SessionLog, world_from_rover: &[Isometry3<f64>]) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for (f, est) in log.frames.iter().zip(world_from_rover) {
+        if let Some(t) = log.ticks.get(f.tick) {
+            sum += (est.translation.vector - t.world_from_rover.translation.vector).norm_squared();
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+/// The odometry-only estimate of every frame, aligned with the true start
+/// (`world_from_session` at the start applied to the session frame).
+pub fn odometry_in_world(log: &SessionLog) -> Vec<Isometry3<f64>> {
+    let world_from_session = log.world_from_session();
+    log.frames
+        .iter()
+        .filter_map(|f| log.ticks.get(f.tick))
+        .map(|t| world_from_session * t.session_from_rover)
+        .collect()
+}
+
+/// The frame in `frames` whose pose (`poses`, one per frame) lies horizontally nearest the
+/// centroid of `points` (the first of `frames` when there are no points).
+pub fn frame_nearest(
+    poses: &[Isometry3<f64>],
+    frames: std::ops::Range<usize>,
+    points: &[Point3<f64>],
+) -> usize {
+    let start = frames.start;
+    if points.is_empty() {
+        return start;
+    }
+    let centroid = points
+        .iter()
+        .map(|p| p.coords)
+        .sum::<nalgebra::Vector3<f64>>()
+        / points.len() as f64;
+    frames
+        .filter(|&k| k < poses.len())
+        .min_by(|&a, &b| {
+            let da = (poses[a].translation.vector - centroid).xy().norm();
+            let db = (poses[b].translation.vector - centroid).xy().norm();
+            da.total_cmp(&db)
+        })
+        .unwrap_or(start)
+}
+
+/// Positions of the landmarks of `map` with these ids.
+pub fn landmark_positions(
+    map: &segloc_maps::ObjectMap,
+    ids: impl Iterator<Item = u32>,
+) -> Vec<Point3<f64>> {
+    ids.filter_map(|id| map.landmarks.iter().find(|l| l.id == id))
+        .map(|l| l.position)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::MissionConfig;
+
+    #[test]
+    fn odometry_weight_falls_with_distance_and_turning() {
+        let c = MissionConfig::default();
+        let still = odometry_information(0.0, 0.0, &c);
+        let driven = odometry_information(1.0, 0.0, &c);
+        let turned = odometry_information(0.0, 1.5, &c);
+        assert!(driven[(3, 3)] < still[(3, 3)]);
+        assert!(driven[(2, 2)] < still[(2, 2)]);
+        assert!(turned[(2, 2)] < still[(2, 2)]);
+        assert_eq!(turned[(3, 3)], still[(3, 3)]);
+    }
+
+    #[test]
+    fn nearest_frame_to_the_points() {
+        let poses: Vec<_> = (0..5)
+            .map(|k| Isometry3::translation(k as f64, 0.0, 0.0))
+            .collect();
+        let points = [Point3::new(2.8, 1.0, 0.0), Point3::new(3.2, -1.0, 0.0)];
+        assert_eq!(frame_nearest(&poses, 0..5, &points), 3);
+        assert_eq!(frame_nearest(&poses, 0..2, &points), 1);
+        assert_eq!(frame_nearest(&poses, 2..5, &[]), 2);
+    }
+
+    #[test]
+    fn chain_of_odometry_and_a_relocalization() {
+        use crate::sim::moon::{Moon, MoonConfig};
+        use crate::sim::session::{run_session, SessionConfig};
+        let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let config = SessionConfig {
+            duration_s: 20.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        let log = run_session(&moon, &config, 3).unwrap();
+        let mission = MissionConfig::default();
+        let mut graph = TrajectoryGraph::new();
+        graph.extend(&log, &mission).unwrap();
+        assert_eq!(graph.frames, log.frames.len());
+        graph.optimize().unwrap();
+        // odometry alone: the graph reproduces the logged estimate
+        let poses = graph.poses_in_prior();
+        let odometry = odometry_in_world(&log);
+        assert!(rmse_m(&log, &poses) - rmse_m(&log, &odometry) < 1e-3);
+        // a perfect relocalization of the last frame pulls it onto the truth
+        let k = graph.frames - 1;
+        let truth = log.ticks[log.frames[k].tick].world_from_rover;
+        let info = Matrix6::identity() * 1e6;
+        graph.add_relocalization(k, truth, info).unwrap();
+        graph.optimize().unwrap();
+        let poses = graph.poses_in_prior();
+        assert!((poses[k].translation.vector - truth.translation.vector).norm() < 0.01);
+    }
+}
