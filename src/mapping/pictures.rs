@@ -38,6 +38,9 @@ pub struct Polyline {
     pub colour: Rgb,
     /// World (x, y) points, metres.
     pub points_xy: Vec<(f64, f64)>,
+    /// Line width in pixels: draw ground truth wide and estimates narrow on top of it, so
+    /// that both stay visible where they agree.
+    pub width_px: f64,
 }
 
 struct Frame {
@@ -243,7 +246,7 @@ pub fn trajectory_png(
         for w in line.points_xy.windows(2) {
             let (x0, y0) = f.world_px(w[0].0, w[0].1);
             let (x1, y1) = f.world_px(w[1].0, w[1].1);
-            c.line(x0, y0, x1, y1, 2.0, line.colour);
+            c.line(x0, y0, x1, y1, line.width_px, line.colour);
         }
         if let Some(&(x, y)) = line.points_xy.first() {
             let (px, py) = f.world_px(x, y);
@@ -308,6 +311,7 @@ mod tests {
             label: "TRUTH".into(),
             colour: [0, 0, 200],
             points_xy: vec![(-1.0, -1.0), (1.0, 1.0)],
+            width_px: 2.0,
         };
         trajectory_png(&t, &[line], "PATH", &p).unwrap();
         let img = image::open(&p).unwrap().to_rgb8();

@@ -282,11 +282,13 @@ impl MissionOutput {
                 label: format!("S{} TRUE", k + 1),
                 colour: ct,
                 points_xy: truth.clone(),
+                width_px: 6.0,
             });
             lines.push(Polyline {
                 label: format!("S{} EST", k + 1),
                 colour: ce,
                 points_xy: est.clone(),
+                width_px: 2.0,
             });
         }
         trajectory_png(
