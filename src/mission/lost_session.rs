@@ -114,19 +114,7 @@ fn attempt(
         .collect();
     let set = detections_with_poses(log, &odometry, first..k + 1, "session2", "odom");
     let query = fuse_detections(&set, &config.fusion);
-    let mut record = Attempt {
-        session: 2,
-        time_s: now_s,
-        query_landmarks: query.len(),
-        accepted: false,
-        refusal: None,
-        inliers: 0,
-        error_m: None,
-        error_deg: None,
-        error_yaw_deg: None,
-        wrong: false,
-        yaw_sigma_deg: None,
-    };
+    let mut record = Attempt::pending(2, now_s, query.len());
     let result = relocalizer.relocalize(&query);
     let reloc = match result {
         Ok(r) => r,

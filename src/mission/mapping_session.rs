@@ -164,19 +164,11 @@ fn close_loop(
         &config.fusion,
     );
     let last = recent.end.saturating_sub(1);
-    let mut record = Attempt {
-        session: 1,
-        time_s: log.frames.get(last).map_or(0.0, |f| f.time_s),
-        query_landmarks: query.len(),
-        accepted: false,
-        refusal: None,
-        inliers: 0,
-        error_m: None,
-        error_deg: None,
-        error_yaw_deg: None,
-        wrong: false,
-        yaw_sigma_deg: None,
-    };
+    let mut record = Attempt::pending(
+        1,
+        log.frames.get(last).map_or(0.0, |f| f.time_s),
+        query.len(),
+    );
     let reloc = match Relocalizer::new(old.clone(), config.relocalize.clone())
         .and_then(|r| r.relocalize(&query))
     {

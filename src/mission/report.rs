@@ -40,6 +40,26 @@ pub struct Attempt {
     pub yaw_sigma_deg: Option<f64>,
 }
 
+impl Attempt {
+    /// An attempt not (yet) accepted: the outcome fields are filled in once the
+    /// relocalizer has answered.
+    pub fn pending(session: usize, time_s: f64, query_landmarks: usize) -> Self {
+        Attempt {
+            session,
+            time_s,
+            query_landmarks,
+            accepted: false,
+            refusal: None,
+            inliers: 0,
+            error_m: None,
+            error_deg: None,
+            error_yaw_deg: None,
+            wrong: false,
+            yaw_sigma_deg: None,
+        }
+    }
+}
+
 /// Relocalization counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct RelocalizationCounts {
