@@ -16,17 +16,17 @@ fn stderr_of(out: &std::process::Output) -> String {
 }
 
 #[test]
-fn demo_relocalizes_and_writes_its_files() {
+fn sim_field_relocalizes_and_writes_its_files() {
     let dir = tempfile::tempdir().unwrap();
     let out = segloc()
-        .args(["demo", "--json", "--out"])
+        .args(["sim", "field", "--json", "--out"])
         .arg(dir.path())
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["status"], "ok");
-    assert_eq!(report["demo"]["correct"], true);
+    assert_eq!(report["field"]["correct"], true);
     for f in [
         "prior_map.json",
         "query_map.json",
@@ -53,12 +53,12 @@ fn demo_relocalizes_and_writes_its_files() {
 #[test]
 fn map_build_and_info_round_trip() {
     let dir = tempfile::tempdir().unwrap();
-    let demo = segloc()
-        .args(["demo", "--out"])
+    let field = segloc()
+        .args(["sim", "field", "--out"])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert_eq!(demo.status.code(), Some(0));
+    assert_eq!(field.status.code(), Some(0));
     let map = dir.path().join("built.json");
     let out = segloc()
         .args(["map", "build"])
@@ -86,7 +86,7 @@ fn unrelated_maps_exit_1_with_a_reason() {
     let b = dir.path().join("b");
     assert_eq!(
         segloc()
-            .args(["demo", "--seed", "3", "--out"])
+            .args(["sim", "field", "--seed", "3", "--out"])
             .arg(&a)
             .output()
             .unwrap()
@@ -96,7 +96,7 @@ fn unrelated_maps_exit_1_with_a_reason() {
     );
     assert_eq!(
         segloc()
-            .args(["demo", "--seed", "4", "--out"])
+            .args(["sim", "field", "--seed", "4", "--out"])
             .arg(&b)
             .output()
             .unwrap()

@@ -2,13 +2,20 @@
 
 use anyhow::Result;
 use clap::Subcommand;
+use segloc::mission::MissionConfig;
 use segloc::relocalize::RelocalizeConfig;
 
 /// Configuration commands.
 #[derive(Subcommand, Debug)]
 pub enum ConfigCommand {
     /// Print the configuration in effect (defaults, or `--config FILE`) as TOML.
-    Print,
+    Print {
+        /// Print the whole mission configuration (`segloc mission|demo --mission-config`)
+        /// instead of the relocalizer's; its `relocalize` table is the configuration in
+        /// effect.
+        #[arg(long)]
+        mission: bool,
+    },
     /// Load `--config FILE` and report whether it is valid.
     Check,
 }
@@ -16,7 +23,14 @@ pub enum ConfigCommand {
 /// Run a config command.
 pub fn run(cmd: &ConfigCommand, config: &RelocalizeConfig) -> Result<i32> {
     match cmd {
-        ConfigCommand::Print => print!("{}", toml::to_string_pretty(config)?),
+        ConfigCommand::Print { mission: false } => print!("{}", toml::to_string_pretty(config)?),
+        ConfigCommand::Print { mission: true } => {
+            let mission = MissionConfig {
+                relocalize: config.clone(),
+                ..MissionConfig::default()
+            };
+            print!("{}", toml::to_string_pretty(&mission)?)
+        }
         ConfigCommand::Check => println!("configuration is valid"),
     }
     Ok(0)

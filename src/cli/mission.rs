@@ -4,9 +4,12 @@
 use super::print_json;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use segloc::mission::{run_mission, MissionConfig};
+use indicatif::{ProgressBar, ProgressStyle};
+use segloc::mission::{
+    run_mission_with_progress, MissionConfig, MissionOutput, MissionProgress, MissionStage, Silent,
+};
 use segloc::relocalize::RelocalizeConfig;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `segloc mission`.
 #[derive(Args, Debug)]
@@ -14,9 +17,9 @@ pub struct MissionArgs {
     /// Seed of the moon and of both sessions.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Simulated seconds per session.
-    #[arg(long, default_value_t = 300.0)]
-    pub seconds: f64,
+    /// Simulated seconds per session (default: the mission configuration's).
+    #[arg(long)]
+    pub seconds: Option<f64>,
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -27,6 +30,9 @@ pub struct MissionArgs {
     /// `relocalize` table is replaced by the global `--config` when that is given.
     #[arg(long, value_name = "FILE")]
     pub mission_config: Option<PathBuf>,
+    /// Show a progress bar on stderr.
+    #[arg(long)]
+    pub progress: bool,
 }
 
 /// Run the mission; exit code 0, or 2 on bad input.
@@ -35,10 +41,36 @@ pub fn run(
     relocalize: &RelocalizeConfig,
     global_config_given: bool,
 ) -> Result<i32> {
-    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 1e5) {
-        bail!("--seconds must be within (0, 1e5]");
+    let config = mission_config(args, relocalize, global_config_given)?;
+    let output = if args.progress {
+        let bar = Bar::new(config.seconds_per_session);
+        let output = run_mission_with_progress(args.seed, &config, &bar);
+        bar.0.finish_and_clear();
+        output?
+    } else {
+        run_mission_with_progress(args.seed, &config, &Silent)?
+    };
+    if let Some(dir) = &args.out {
+        output
+            .write(dir)
+            .with_context(|| format!("writing the mission's outputs to {}", dir.display()))?;
     }
-    let base = match &args.mission_config {
+    if args.json {
+        print_json(&output.report)?;
+    } else {
+        print_summary(&output, args.out.as_deref());
+    }
+    Ok(0)
+}
+
+/// The mission configuration: `--mission-config` or the defaults, with `--seconds` and the
+/// global relocalization `--config` applied.
+fn mission_config(
+    args: &MissionArgs,
+    relocalize: &RelocalizeConfig,
+    global_config_given: bool,
+) -> Result<MissionConfig> {
+    let base: MissionConfig = match &args.mission_config {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read {}", path.display()))?;
@@ -46,46 +78,106 @@ pub fn run(
         }
         None => MissionConfig::default(),
     };
-    let config = MissionConfig {
-        seconds_per_session: args.seconds,
+    let seconds = args.seconds.unwrap_or(base.seconds_per_session);
+    if !(seconds.is_finite() && seconds > 0.0 && seconds <= 1e5) {
+        bail!("--seconds must be within (0, 1e5]");
+    }
+    Ok(MissionConfig {
+        seconds_per_session: seconds,
         relocalize: if global_config_given {
             relocalize.clone()
         } else {
             base.relocalize.clone()
         },
         ..base
-    };
-    let output = run_mission(args.seed, &config)?;
-    if let Some(dir) = &args.out {
-        output.write(dir)?;
+    })
+}
+
+/// A progress bar over both sessions' simulated time.
+struct Bar(ProgressBar);
+
+impl Bar {
+    const STEPS_PER_S: f64 = 10.0;
+
+    fn new(seconds_per_session: f64) -> Self {
+        let bar = ProgressBar::new((2.0 * seconds_per_session * Self::STEPS_PER_S) as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        Bar(bar)
     }
-    let r = &output.report;
-    if args.json {
-        print_json(r)?;
-    } else {
-        for s in &r.sessions {
-            println!(
-                "session {}: {:.0} s, {:.1} m, RMSE {:.3} m (odometry only {:.3} m), {} collisions",
-                s.session,
-                s.duration_s,
-                s.distance_m,
-                s.rmse_m,
-                s.rmse_without_global_m,
-                s.collisions
-            );
+}
+
+impl MissionProgress for Bar {
+    fn update(&self, stage: MissionStage) {
+        match stage {
+            MissionStage::Driving {
+                session,
+                time_s,
+                duration_s,
+            } => {
+                let done_s = (session.saturating_sub(1)) as f64 * duration_s + time_s;
+                self.0.set_position((done_s * Self::STEPS_PER_S) as u64);
+                if self.0.message().is_empty() || time_s < 0.1 {
+                    self.0.set_message(match session {
+                        1 => "session 1: mapping from a known start".to_string(),
+                        _ => format!("session {session}: lost, relocalizing"),
+                    });
+                }
+            }
+            MissionStage::Mapping => {
+                self.0.set_position(self.0.length().unwrap_or(0));
+                self.0.set_message("height and rock maps, LAC score");
+            }
         }
+    }
+}
+
+/// The human-readable summary.
+pub fn print_summary(output: &MissionOutput, out: Option<&Path>) {
+    let r = &output.report;
+    for s in &r.sessions {
         println!(
-            "relocalizations: {} accepted, {} refused, {} wrong accepted",
-            r.relocalizations.accepted, r.relocalizations.refused, r.relocalizations.wrong_accepted
-        );
-        println!(
-            "LAC: geometric {:.1}, rocks {:.1}, productivity {:.1}, total {:.1}",
-            r.lac.geometric, r.lac.rocks, r.lac.productivity, r.lac.total
-        );
-        println!(
-            "{:.1} s wall, {:.0}× real time",
-            r.wall_s, r.realtime_factor
+            "session {}: {:.0} s, {:.1} m, RMSE {:.3} m (odometry only {:.3} m), {} collisions",
+            s.session, s.duration_s, s.distance_m, s.rmse_m, s.rmse_without_global_m, s.collisions
         );
     }
-    Ok(0)
+    println!(
+        "relocalizations: {} accepted, {} refused, {} wrong accepted",
+        r.relocalizations.accepted, r.relocalizations.refused, r.relocalizations.wrong_accepted
+    );
+    println!(
+        "LAC: geometric {:.1}, rocks {:.1}, productivity {:.1}, total {:.1}",
+        r.lac.geometric, r.lac.rocks, r.lac.productivity, r.lac.total
+    );
+    println!(
+        "{:.1} s wall, {:.0}× real time",
+        r.wall_s, r.realtime_factor
+    );
+    if let Some(dir) = out {
+        let recording = if cfg!(feature = "rerun") {
+            ", mission.rrd (open with `rerun`)"
+        } else {
+            ""
+        };
+        println!(
+            "wrote report.json, height_error.png, rock_map.png, trajectories.png{recording} to {}",
+            dir.display()
+        );
+    }
+}
+
+impl MissionArgs {
+    /// The arguments `segloc demo` runs the mission with.
+    pub fn for_demo(seed: u64, out: PathBuf, json: bool, mission_config: Option<PathBuf>) -> Self {
+        MissionArgs {
+            seed,
+            seconds: None,
+            json,
+            out: Some(out),
+            mission_config,
+            progress: true,
+        }
+    }
 }

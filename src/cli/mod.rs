@@ -11,6 +11,7 @@ mod map;
 mod mission;
 mod relocalize;
 mod sim;
+mod sim_field;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -32,8 +33,9 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// The main job on built-in data: a generated two-session boulder field, relocalized
-    /// end to end.
+    /// The main job on built-in data: a two-session mission on the synthetic moon (session 1
+    /// maps, session 2 starts lost and finds itself from the boulders), LAC maps scored,
+    /// report and pictures written to `--out`.
     Demo(demo::DemoArgs),
     /// Find `prior_from_query` between two maps (map files or detection / traverse CSVs).
     Relocalize(relocalize::RelocalizeArgs),
@@ -67,7 +69,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<i32> {
     let config = load_config(cli.config.as_deref())?;
     match cli.command {
-        Command::Demo(args) => demo::run(&args, &config),
+        Command::Demo(args) => demo::run(&args, &config, cli.config.is_some()),
         Command::Relocalize(args) => relocalize::run(&args, &config),
         Command::Map(cmd) => map::run(&cmd, &config),
         Command::Eval(cmd) => eval::run(&cmd, &config),
@@ -76,7 +78,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Graph(args) => graph::run(&args),
         Command::Grid(cmd) => grid::run(&cmd),
         Command::Detect(args) => detect::run(&args),
-        Command::Sim(cmd) => sim::run(&cmd),
+        Command::Sim(cmd) => sim::run(&cmd, &config),
         Command::Mission(args) => mission::run(&args, &config, cli.config.is_some()),
     }
 }

@@ -1,8 +1,10 @@
-//! `segloc sim session`: drive one simulated session on the synthetic moon and summarise it.
+//! `segloc sim session`: drive one simulated session on the synthetic moon and summarise it;
+//! `segloc sim field`: the two-session boulder field ([`super::sim_field`]).
 
 use super::print_json;
 use anyhow::{bail, Result};
 use clap::Subcommand;
+use segloc::relocalize::RelocalizeConfig;
 use segloc::sim::moon::{Moon, MoonConfig};
 use segloc::sim::session::{run_session, SessionConfig};
 
@@ -24,11 +26,15 @@ pub enum SimCommand {
         #[arg(long)]
         json: bool,
     },
+    /// A generated boulder field seen by two sessions, fused into maps and relocalized:
+    /// writes detection CSVs and maps to play with.
+    Field(super::sim_field::FieldArgs),
 }
 
 /// Run a `sim` subcommand; exit code 0, or 2 on bad input.
-pub fn run(command: &SimCommand) -> Result<i32> {
+pub fn run(command: &SimCommand, relocalize: &RelocalizeConfig) -> Result<i32> {
     match command {
+        SimCommand::Field(args) => super::sim_field::run(args, relocalize),
         SimCommand::Session {
             seed,
             seconds,

@@ -2,6 +2,7 @@
 //! relocalize a submap of the recent detections (odometry frame) against session 1's map,
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
+use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
     detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
 };
@@ -32,6 +33,7 @@ pub fn localize_session(
     start: [f64; 3],
     guess: [f64; 3],
     seed: u64,
+    progress: &dyn MissionProgress,
 ) -> Result<LocalizedSession, MissionError> {
     let session = SessionConfig {
         duration_s: config.seconds_per_session,
@@ -45,6 +47,11 @@ pub fn localize_session(
     let mut next_attempt_s = config.relocalize_period_s;
     while sim.step() {
         let log = sim.log();
+        progress.update(MissionStage::Driving {
+            session: 2,
+            time_s: log.ticks.last().map_or(0.0, |t| t.time_s),
+            duration_s: session.duration_s,
+        });
         let Some(last) = log.frames.last() else {
             continue;
         };

@@ -2,6 +2,7 @@
 //! relocalizes against (in the optimised session frame, which is the world frame up to
 //! drift since the start is known).
 
+use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
     detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
 };
@@ -10,7 +11,7 @@ use crate::graph::{se3, RobustKernel};
 use crate::landmarks::{fuse_detections, FusionConfig};
 use crate::relocalize::Relocalizer;
 use crate::sim::moon::Moon;
-use crate::sim::session::{run_session, SessionConfig, SessionLog};
+use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::Isometry3;
 use segloc_maps::ObjectMap;
 
@@ -32,6 +33,7 @@ pub fn map_session(
     config: &MissionConfig,
     start: [f64; 3],
     seed: u64,
+    progress: &dyn MissionProgress,
 ) -> Result<MappedSession, MissionError> {
     let session = SessionConfig {
         duration_s: config.seconds_per_session,
@@ -39,7 +41,15 @@ pub fn map_session(
         initial_guess: None,
         ..config.session.clone()
     };
-    let log = run_session(moon, &session, seed)?;
+    let mut sim = SessionSim::new(moon, &session, seed)?;
+    while sim.step() {
+        progress.update(MissionStage::Driving {
+            session: 1,
+            time_s: sim.log().ticks.last().map_or(0.0, |t| t.time_s),
+            duration_s: session.duration_s,
+        });
+    }
+    let log = sim.finish();
     let mut graph = TrajectoryGraph::new();
     graph.extend(&log, config)?;
     let attempts = if config.loop_closures {

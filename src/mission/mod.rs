@@ -10,7 +10,10 @@
 //!   the planner;
 //! - [`trajectory`]: the per-session pose graph and trajectory error;
 //! - [`maps`]: height and rock maps, LAC score;
-//! - [`report`]: the JSON report and the pictures.
+//! - [`report`]: the JSON report and the pictures;
+//! - [`trace`]: the mission frame by frame for playback, and with the cargo feature
+//!   `rerun`, [`recording`]: a `.rrd` recording of it for the Rerun viewer;
+//! - [`progress`]: where a running mission is, for a progress display.
 //!
 //! ```no_run
 //! use segloc::mission::{run_mission, MissionConfig};
@@ -21,7 +24,11 @@
 pub mod lost_session;
 pub mod mapping_session;
 pub mod maps;
+pub mod progress;
+#[cfg(feature = "rerun")]
+pub mod recording;
 pub mod report;
+pub mod trace;
 pub mod trajectory;
 
 use crate::graph::GraphError;
@@ -33,7 +40,9 @@ use crate::sim::session::{SessionConfig, SessionError};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
+pub use progress::{MissionProgress, MissionStage, Silent};
 pub use report::{Attempt, MissionOutput, MissionReport, RelocalizationCounts, SessionReport};
+pub use trace::MissionTrace;
 
 /// Errors running a mission.
 #[derive(Debug, thiserror::Error)]
@@ -197,6 +206,15 @@ impl MissionConfig {
 
 /// Run the two-session mission on the moon of `seed`.
 pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, MissionError> {
+    run_mission_with_progress(seed, config, &Silent)
+}
+
+/// [`run_mission`], telling `progress` where it is.
+pub fn run_mission_with_progress(
+    seed: u64,
+    config: &MissionConfig,
+    progress: &dyn MissionProgress,
+) -> Result<MissionOutput, MissionError> {
     config.validate()?;
     let started = Instant::now();
     let moon = Moon::generate(&config.moon, seed)?;
@@ -210,7 +228,8 @@ pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, M
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
 
-    let session_1 = mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2))?;
+    let session_1 =
+        mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
     let relocalizer = Relocalizer::new(session_1.map.clone(), config.relocalize.clone())?;
     let session_2 = lost_session::localize_session(
         &moon,
@@ -219,7 +238,9 @@ pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, M
         start_2,
         guess_2,
         seed.wrapping_mul(2).wrapping_add(1),
+        progress,
     )?;
+    progress.update(MissionStage::Mapping);
 
     let truth = moon.ground_truth_grid();
     let mission_seconds = 2.0 * config.seconds_per_session;
@@ -233,9 +254,16 @@ pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, M
         config,
     )?;
     let wall_s = started.elapsed().as_secs_f64();
-    Ok(report::assemble(
-        seed, config, &session_1, &session_2, maps, truth, wall_s,
-    ))
+    let mut output = report::assemble(seed, config, &session_1, &session_2, maps, truth, wall_s);
+    output.trace = MissionTrace::collect(
+        &moon,
+        &session_1.map,
+        &[
+            (&session_1.log, &session_1.poses),
+            (&session_2.log, &session_2.poses),
+        ],
+    );
+    Ok(output)
 }
 
 #[cfg(test)]

@@ -164,6 +164,8 @@ pub struct MissionOutput {
     pub score: LacScore,
     /// Per session: true and estimated xy of every frame.
     pub trajectories: Vec<TrajectoryPair>,
+    /// The mission frame by frame, for playback (the Rerun recording).
+    pub trace: super::MissionTrace,
 }
 
 fn session_report(
@@ -246,6 +248,7 @@ pub(super) fn assemble(
         truth,
         score: maps.score,
         trajectories,
+        trace: super::MissionTrace::default(),
     }
 }
 
@@ -269,11 +272,16 @@ pub enum OutputError {
     /// The report could not be serialised.
     #[error(transparent)]
     Json(#[from] serde_json::Error),
+    /// The Rerun recording failed.
+    #[cfg(feature = "rerun")]
+    #[error(transparent)]
+    Recording(#[from] super::recording::RecordingError),
 }
 
 impl MissionOutput {
     /// Write `report.json`, `height_error.png`, `rock_map.png` and `trajectories.png` into
-    /// `dir` (created if missing), each file atomically.
+    /// `dir` (created if missing), each file atomically; with the cargo feature `rerun`,
+    /// also `mission.rrd`, a recording of the run for the Rerun viewer.
     pub fn write(&self, dir: &Path) -> Result<(), OutputError> {
         std::fs::create_dir_all(dir).map_err(|e| OutputError::Directory {
             path: dir.display().to_string(),
@@ -316,6 +324,16 @@ impl MissionOutput {
             &lines,
             &format!("TRAJECTORIES SEED {}", r.seed),
             &dir.join("trajectories.png"),
+        )?;
+        #[cfg(feature = "rerun")]
+        super::recording::write_recording(
+            self,
+            &dir.join("mission.rrd"),
+            &[
+                ("height_error", &dir.join("height_error.png")),
+                ("rock_map", &dir.join("rock_map.png")),
+                ("trajectories", &dir.join("trajectories.png")),
+            ],
         )?;
         let json = serde_json::to_vec_pretty(r)?;
         segloc_maps::write_atomic(&dir.join("report.json"), &json)?;

@@ -1,0 +1,75 @@
+//! `segloc demo`: the main job on built-in data, end to end through the binary.
+
+use std::process::Command;
+
+#[test]
+fn demo_runs_the_mission_and_writes_report_pictures_and_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("short.toml");
+    std::fs::write(&config, "seconds_per_session = 60.0\n").unwrap();
+    let out_dir = dir.path().join("demo");
+    let output = Command::new(env!("CARGO_BIN_EXE_segloc"))
+        .args(["demo", "--seed", "4", "--mission-config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{output:?}");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    for line in [
+        "session 1:",
+        "session 2:",
+        "relocalizations:",
+        "LAC: geometric",
+    ] {
+        assert!(stdout.contains(line), "no {line:?} in\n{stdout}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out_dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["seed"], 4);
+    assert_eq!(report["config"]["seconds_per_session"], 60.0);
+    assert_eq!(report["sessions"].as_array().unwrap().len(), 2);
+    for png in ["height_error.png", "rock_map.png", "trajectories.png"] {
+        let bytes = std::fs::read(out_dir.join(png)).unwrap();
+        assert!(bytes.starts_with(b"\x89PNG"), "{png} is not a PNG");
+    }
+    let recording = out_dir.join("mission.rrd");
+    if cfg!(feature = "rerun") {
+        let bytes = std::fs::read(&recording).unwrap();
+        assert!(bytes.len() > 100_000, "recording of {} bytes", bytes.len());
+        assert!(
+            bytes.starts_with(b"RRF"),
+            "not a Rerun file: {:?}",
+            &bytes[..4]
+        );
+    } else {
+        assert!(!recording.exists());
+    }
+    // no temporary files left behind
+    for entry in std::fs::read_dir(&out_dir).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(
+            !name.contains("partial") && !name.starts_with('.'),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn demo_refuses_a_bad_mission_config_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("bad.toml");
+    std::fs::write(&config, "seconds_per_session = \"long\"\n").unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_segloc"))
+        .args(["demo", "--mission-config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(dir.path().join("demo"))
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2), "{output:?}");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("bad.toml"), "{stderr}");
+    assert!(!dir.path().join("demo").exists());
+}
