@@ -8,11 +8,12 @@
 # checks robustness to wrong loop closures and incremental updates, and writes the section
 # "## Pose graph (issue 3)" of BENCHMARKS.md.
 #
-# Usage: scripts/bench_posegraph.sh [--runs N] [--no-write]
+# Usage: scripts/bench_posegraph.sh [--runs N] [--seeds N] [--no-write]
+# Env: SEGLOC_BENCH_VENV (an existing virtual environment with gtsam), CARGO_TARGET_DIR.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 TARGET="${CARGO_TARGET_DIR:-$ROOT/target}"
-VENV="$TARGET/bench-venv"
+VENV="${SEGLOC_BENCH_VENV:-$TARGET/bench-venv}"
 GTSAM_VERSION="${GTSAM_VERSION:-4.3.0}"
 
 if [ ! -x "$VENV/bin/python" ]; then

@@ -10,7 +10,7 @@ use segloc::graph::metrics::trajectory_error;
 use segloc::graph::synthetic::{self, SyntheticConfig};
 use segloc::graph::{
     Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
-    SolverConfig,
+    SolverConfig, UpdateMethod,
 };
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -393,9 +393,16 @@ struct BenchOutput {
     odometry_append_skipped: f64,
     /// One pose + its odometry factor, with a forced full warm-started re-optimisation.
     odometry_append_full_ms: Summary,
-    /// One pose + odometry + a loop closure to a pose 40–90 steps back (full re-solve).
+    /// One pose + odometry + a loop closure to a pose 40–90 steps back, consecutively.
     loop_closure_append_ms: Summary,
-    loop_closure_append_iterations: Summary,
+    /// Loop-closure appends done incrementally on the last batch linearisation.
+    loop_closure_incremental: usize,
+    /// Loop-closure appends done by a batch re-optimisation.
+    loop_closure_batch: usize,
+    /// Relative cost gap to the full batch optimum of the same graph after each append.
+    loop_closure_cost_gap: Summary,
+    /// Largest position difference to that batch optimum after each append.
+    loop_closure_max_position_diff_m: Summary,
 }
 
 #[derive(Serialize)]
@@ -426,7 +433,8 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
     if a.poses < 100 || a.appends == 0 {
         return Err(UsageError("need --poses >= 100 and --appends >= 1".into()).into());
     }
-    let total = a.poses + 3 * a.appends + 1;
+    let forced = a.appends.div_ceil(5);
+    let total = a.poses + 2 * a.appends + forced + 1;
     let synth = synthetic::generate(&SyntheticConfig {
         poses: total,
         loop_closures: a.loop_closures,
@@ -451,30 +459,26 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         .iter()
         .filter(|e| e.to == e.from + 1)
         .collect();
+    let mut next = n;
+    // 1. Odometry only: one pose and its odometry factor per update.
     let mut odo_ms = Vec::new();
     let mut skipped = 0usize;
-    let mut odo_full_ms = Vec::new();
-    let mut loop_ms = Vec::new();
-    let mut loop_it = Vec::new();
-    let mut next = n;
-    for k in 0..a.appends {
-        // One pose and its odometry factor.
+    for _ in 0..a.appends {
         let e = odometry[(next - 1) as usize];
         let t = Instant::now();
         inc.add_odometry(e.from, e.to, e.measured, e.information)?;
         let r = inc.update()?;
         odo_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        skipped += usize::from(!r.optimized);
+        skipped += usize::from(r.method == UpdateMethod::Skipped);
         next += 1;
-        // The same, with a forced full re-optimisation.
-        let e = odometry[(next - 1) as usize];
-        let t = Instant::now();
-        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
-        inc.invalidate();
-        inc.update()?;
-        odo_full_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        next += 1;
-        // One pose, its odometry and a loop closure back to a pose 40–90 steps earlier.
+    }
+    // 2. One pose, its odometry and a loop closure back to a pose 40–90 steps earlier per
+    //    update, consecutively (batches included whenever the updater decides on one).
+    let mut loop_ms = Vec::new();
+    let mut methods = [0usize; 3];
+    let mut gaps = Vec::new();
+    let mut pose_diffs = Vec::new();
+    for k in 0..a.appends {
         let e = odometry[(next - 1) as usize];
         let back = next.saturating_sub(40 + (7 * k as u64) % 50);
         let z = synth.truth[back as usize].inv_mul(&synth.truth[next as usize]);
@@ -484,7 +488,33 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
             .add_between(back, next, z, e.information, RobustKernel::None)?;
         let r = inc.update()?;
         loop_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        loop_it.push(r.report.map_or(0.0, |r| r.iterations as f64));
+        methods[r.method as usize] += 1;
+        next += 1;
+        // Accuracy (untimed): the full batch optimum of the same graph.
+        let mut full = inc.graph().clone();
+        let report = full.optimize(&SolverConfig {
+            relative_tolerance: 1e-10,
+            absolute_tolerance: 0.0,
+            log_iterations: false,
+            ..SolverConfig::default()
+        })?;
+        let cost = inc.graph().cost();
+        gaps.push((cost - report.final_cost) / report.final_cost);
+        let diff = (0..=next)
+            .filter_map(|id| Some((inc.graph().pose(id)?, full.pose(id)?)))
+            .map(|(p, q)| (p.translation.vector - q.translation.vector).norm())
+            .fold(0.0f64, f64::max);
+        pose_diffs.push(diff);
+    }
+    // 3. Reference: one pose + odometry with a forced full warm-started re-optimisation.
+    let mut odo_full_ms = Vec::new();
+    for _ in 0..forced {
+        let e = odometry[(next - 1) as usize];
+        let t = Instant::now();
+        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
+        inc.invalidate();
+        inc.update()?;
+        odo_full_ms.push(t.elapsed().as_secs_f64() * 1e3);
         next += 1;
     }
     let out = BenchOutput {
@@ -496,7 +526,10 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         odometry_append_skipped: skipped as f64 / a.appends as f64,
         odometry_append_full_ms: summarise(odo_full_ms),
         loop_closure_append_ms: summarise(loop_ms),
-        loop_closure_append_iterations: summarise(loop_it),
+        loop_closure_incremental: methods[UpdateMethod::Incremental as usize],
+        loop_closure_batch: methods[UpdateMethod::Batch as usize],
+        loop_closure_cost_gap: summarise(gaps),
+        loop_closure_max_position_diff_m: summarise(pose_diffs),
     };
     if a.json {
         println!("{}", serde_json::to_string(&out)?);

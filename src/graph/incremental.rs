@@ -6,8 +6,15 @@
 //! one odometry factor and initialised by it has a zero residual, so the old optimum extended
 //! by that pose *is* the new optimum (the old factors' gradient was zero and the new one
 //! adds none) and nothing needs solving. Otherwise — a loop closure, a relocalization, a
-//! second constraint on a new pose — the whole graph is re-optimised from the warm start.
+//! second constraint on a new pose — the estimate moves to the optimum of the graph with the
+//! old factors kept linearised at the last batch optimum (see `linear_model`): a small dense
+//! problem over the variables the new factors touch plus one triangular solve pair, a few
+//! milliseconds on a 5,000-pose graph. A batch re-optimisation of the whole graph (warm
+//! started, relinearising everything) runs instead when there is no linearisation yet, when
+//! an old variable has moved more than `relinearize_threshold` from its linearisation point,
+//! or when more than `max_active_variables` variables are active.
 
+use super::linear_model::LinearModel;
 use super::robust::RobustKernel;
 use super::solver::{OptimizationReport, SolverConfig};
 use super::{GraphError, PoseGraph};
@@ -24,6 +31,26 @@ pub struct IncrementalConfig {
     /// New factors whose gradient entries (`Jᵀ W r`) are all at most this leave the
     /// optimum unchanged, so the update skips solving.
     pub skip_gradient_tolerance: f64,
+    /// Update on the last batch linearisation instead of re-optimising the whole graph.
+    pub incremental: bool,
+    /// Re-run the batch once more variables than this are active (touched by factors added
+    /// since the batch, or added since): the small problem is dense.
+    pub max_active_variables: usize,
+    /// Re-run the batch (relinearise) once an old variable's step from its linearisation
+    /// point exceeds this in any tangent entry (radians or metres; iSAM2's default is 0.1).
+    pub relinearize_threshold: f64,
+}
+
+/// How an update brought the estimate to the optimum.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpdateMethod {
+    /// The new factors leave the optimum unchanged; nothing was solved.
+    Skipped,
+    /// Small problem on the last batch linearisation.
+    Incremental,
+    /// Whole graph re-optimised.
+    Batch,
 }
 
 impl Default for IncrementalConfig {
@@ -35,6 +62,9 @@ impl Default for IncrementalConfig {
                 ..SolverConfig::default()
             },
             skip_gradient_tolerance: 1e-9,
+            incremental: true,
+            max_active_variables: 40,
+            relinearize_threshold: 0.1,
         }
     }
 }
@@ -45,9 +75,17 @@ pub struct IncrementalReport {
     /// True when the graph was re-optimised; false when the new factors left the optimum
     /// unchanged.
     pub optimized: bool,
+    /// How the update was done.
+    pub method: UpdateMethod,
+    /// Active variables of an incremental update (0 otherwise).
+    pub active_variables: usize,
+    /// Largest step entry of an old variable from its linearisation point in the last
+    /// incremental attempt (0 when none was made).
+    pub old_step_max: f64,
     /// Factors added since the previous update.
     pub new_factors: usize,
-    /// Cost after the update.
+    /// Cost after the update; after an incremental update, the cost with the old factors
+    /// to second order around their linearisation point.
     pub cost: f64,
     /// Wall time of the update.
     pub time_ms: f64,
@@ -56,7 +94,7 @@ pub struct IncrementalReport {
 }
 
 /// A pose graph grown online and re-optimised after each batch of additions.
-#[derive(Debug, Default)]
+#[derive(Default)]
 pub struct IncrementalGraph {
     graph: PoseGraph,
     config: IncrementalConfig,
@@ -65,6 +103,19 @@ pub struct IncrementalGraph {
     /// Cost of the settled factors at the current estimate.
     settled_cost: f64,
     converged: bool,
+    /// Linearisation of the last batch, when incremental updates are on.
+    model: Option<LinearModel>,
+}
+
+impl std::fmt::Debug for IncrementalGraph {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("IncrementalGraph")
+            .field("graph", &self.graph)
+            .field("settled", &self.settled)
+            .field("converged", &self.converged)
+            .field("linearised", &self.model.is_some())
+            .finish()
+    }
 }
 
 impl IncrementalGraph {
@@ -77,6 +128,7 @@ impl IncrementalGraph {
             settled: 0,
             settled_cost: 0.0,
             converged: false,
+            model: None,
         }
     }
 
@@ -94,6 +146,7 @@ impl IncrementalGraph {
     /// Forces the next update to re-optimise the whole graph.
     pub fn invalidate(&mut self) {
         self.converged = false;
+        self.model = None;
     }
 
     /// Gives the graph back.
@@ -124,6 +177,7 @@ impl IncrementalGraph {
         let start = Instant::now();
         let factors = self.graph.factors();
         let new_factors = factors.len().saturating_sub(self.settled);
+        let mut attempt = None;
         if self.converged && self.settled <= factors.len() {
             let poses = &self.graph.poses;
             let mut new_cost = 0.0;
@@ -145,19 +199,51 @@ impl IncrementalGraph {
                 self.settled_cost += new_cost;
                 return Ok(IncrementalReport {
                     optimized: false,
+                    method: UpdateMethod::Skipped,
+                    active_variables: 0,
+                    old_step_max: 0.0,
                     new_factors,
                     cost: self.settled_cost,
                     time_ms: start.elapsed().as_secs_f64() * 1e3,
                     report: None,
                 });
             }
+            if let (true, Some(model)) = (self.config.incremental, self.model.as_mut()) {
+                attempt = model.update(&mut self.graph, self.config.max_active_variables);
+                if let Some(u) = attempt {
+                    if u.old_step_max <= self.config.relinearize_threshold {
+                        self.settled = self.graph.num_factors();
+                        self.settled_cost = u.cost;
+                        return Ok(IncrementalReport {
+                            optimized: true,
+                            method: UpdateMethod::Incremental,
+                            active_variables: u.active,
+                            old_step_max: u.old_step_max,
+                            new_factors,
+                            cost: u.cost,
+                            time_ms: start.elapsed().as_secs_f64() * 1e3,
+                            report: None,
+                        });
+                    }
+                    // Far from the linearisation point: relinearise everything, starting
+                    // from the incremental estimate.
+                }
+            }
         }
+        let old_step_max = attempt.map_or(0.0, |u| u.old_step_max);
+        self.model = None;
         let report = self.graph.optimize(&self.config.solver)?;
         self.converged = report.converged;
         self.settled = self.graph.num_factors();
         self.settled_cost = report.final_cost;
+        if self.config.incremental && report.converged {
+            self.model = LinearModel::build(&mut self.graph);
+        }
         Ok(IncrementalReport {
             optimized: true,
+            method: UpdateMethod::Batch,
+            active_variables: attempt.map_or(0, |u| u.active),
+            old_step_max,
             new_factors,
             cost: report.final_cost,
             time_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -201,12 +287,111 @@ mod tests {
         assert!((report.final_cost - cost).abs() <= 1e-6 * cost.max(1.0));
     }
 
+    /// Loop closures appended one by one to a 600-pose graph: the incremental updates land
+    /// on the batch optimum of the same graph within the linearisation error.
+    #[test]
+    fn incremental_loop_closures_match_the_batch_optimum() {
+        let synth = synthetic::generate(&SyntheticConfig {
+            poses: 700,
+            loop_closures: 40,
+            ..SyntheticConfig::default()
+        });
+        let mut base = synth.file.clone();
+        base.vertices.retain(|v| v.id < 600);
+        base.edges.retain(|e| e.from < 600 && e.to < 600);
+        let graph = base.to_pose_graph(&BuildOptions::default()).unwrap();
+        let mut inc = IncrementalGraph::new(graph, IncrementalConfig::default());
+        assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
+        let odometry: Vec<_> = synth
+            .file
+            .edges
+            .iter()
+            .filter(|e| e.to == e.from + 1)
+            .collect();
+        let mut incremental = 0;
+        for id in 600u64..615 {
+            let e = odometry[(id - 1) as usize];
+            inc.add_odometry(e.from, e.to, e.measured, e.information)
+                .unwrap();
+            let back = id - 45;
+            let z = synth.truth[back as usize].inv_mul(&synth.truth[id as usize]);
+            inc.graph_mut()
+                .add_between(back, id, z, e.information, RobustKernel::None)
+                .unwrap();
+            let r = inc.update().unwrap();
+            if r.method == UpdateMethod::Incremental {
+                incremental += 1;
+            }
+            let mut full = inc.graph().clone();
+            let batch = full
+                .optimize(&SolverConfig {
+                    relative_tolerance: 1e-12,
+                    absolute_tolerance: 0.0,
+                    ..SolverConfig::default()
+                })
+                .unwrap();
+            let cost = inc.graph().cost();
+            let gap = (cost - batch.final_cost) / batch.final_cost;
+            assert!((-1e-9..1e-4).contains(&gap), "update {id}: gap {gap:e}");
+            // The model's cost estimate is close to the true cost.
+            assert!((r.cost - cost).abs() < 1e-3 * cost, "{} vs {cost}", r.cost);
+            // Positions: the linearisation error of the old factors shows as a small
+            // rotation of weakly constrained parts of the graph (centimetres at 100 m).
+            for v in 0..=id {
+                let p = inc.graph().pose(v).unwrap().translation.vector;
+                let q = full.pose(v).unwrap().translation.vector;
+                assert!((p - q).norm() < 0.15, "pose {v}: {}", (p - q).norm());
+            }
+        }
+        assert!(incremental >= 4, "only {incremental} incremental updates");
+    }
+
+    /// A tiny chain where the incremental update must equal the exact optimum: with linear
+    /// (translation-only) factors the quadratic model is exact.
+    #[test]
+    fn incremental_update_is_exact_on_a_linear_problem() {
+        let mut g = PoseGraph::new();
+        g.add_pose(0, Isometry3::identity()).unwrap();
+        g.fix(0).unwrap();
+        let config = IncrementalConfig {
+            relinearize_threshold: 1.0,
+            ..IncrementalConfig::default()
+        };
+        let mut inc = IncrementalGraph::new(g, config);
+        let info = Matrix6::identity();
+        let z = Isometry3::translation(1.0, 0.0, 0.0);
+        for id in 1..5 {
+            inc.add_odometry(id - 1, id, z, info).unwrap();
+        }
+        assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
+        inc.graph_mut()
+            .add_between(
+                0,
+                4,
+                Isometry3::translation(3.5, 0.0, 0.0),
+                info,
+                RobustKernel::None,
+            )
+            .unwrap();
+        let r = inc.update().unwrap();
+        assert_eq!(r.method, UpdateMethod::Incremental);
+        let x4 = inc.graph().pose(4).unwrap().translation.x;
+        assert!((x4 - 3.6).abs() < 1e-9, "{x4}");
+        let x2 = inc.graph().pose(2).unwrap().translation.x;
+        assert!((x2 - 1.8).abs() < 1e-9, "{x2}");
+        assert!((r.cost - inc.graph().cost()).abs() < 1e-12);
+    }
+
     #[test]
     fn a_loop_closure_triggers_a_full_solve() {
         let mut g = PoseGraph::new();
         g.add_pose(0, Isometry3::identity()).unwrap();
         g.fix(0).unwrap();
-        let mut inc = IncrementalGraph::new(g, IncrementalConfig::default());
+        let config = IncrementalConfig {
+            incremental: false,
+            ..IncrementalConfig::default()
+        };
+        let mut inc = IncrementalGraph::new(g, config);
         let info = Matrix6::identity();
         let z = Isometry3::translation(1.0, 0.0, 0.0);
         for id in 1..5 {

@@ -19,7 +19,8 @@
 //! * `structure` + `ordering`: the sparse normal equations, laid out once in AMD order with a
 //!   symbolic Cholesky that is reused until the graph's structure changes.
 //! * `initialize`: chordal initialisation ([`Initialization::Chordal`]).
-//! * [`IncrementalGraph`]: online use, skipping solves that cannot change the optimum.
+//! * [`IncrementalGraph`]: online use, skipping solves that cannot change the optimum and
+//!   updating on the last batch linearisation (`linear_model`) between batches.
 //! * [`file`](mod@file), [`g2o`], [`toro`]: g2o 3D and TORO 3D files; [`synthetic`] and [`metrics`]
 //!   for tests and benchmarks.
 //!
@@ -52,6 +53,7 @@ pub mod file;
 pub mod g2o;
 mod incremental;
 mod initialize;
+mod linear_model;
 pub mod metrics;
 mod ordering;
 mod pose_graph;
@@ -67,7 +69,7 @@ pub mod toro;
 pub use components::{Anchor, ComponentInfo};
 pub use error::GraphError;
 pub use factors::{Factor, FactorKind};
-pub use incremental::{IncrementalConfig, IncrementalGraph, IncrementalReport};
+pub use incremental::{IncrementalConfig, IncrementalGraph, IncrementalReport, UpdateMethod};
 pub use pose_graph::PoseGraph;
 pub use robust::RobustKernel;
 pub use solver::{

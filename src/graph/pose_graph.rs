@@ -39,6 +39,22 @@ pub(crate) struct StructureCache {
     pub system: NormalEquations<6>,
 }
 
+/// A copy of the variables, estimates, fixed flags and factors; the cached symbolic analysis
+/// is not copied (the copy analyses again on its first optimisation).
+impl Clone for PoseGraph {
+    fn clone(&self) -> Self {
+        Self {
+            keys: self.keys.clone(),
+            index: self.index.clone(),
+            poses: self.poses.clone(),
+            fixed: self.fixed.clone(),
+            factors: self.factors.clone(),
+            cache: None,
+            structure_version: self.structure_version,
+        }
+    }
+}
+
 impl std::fmt::Debug for PoseGraph {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("PoseGraph")

@@ -420,7 +420,7 @@ fn initial_mu(factors: &[Factor], poses: &[Isometry3<f64>]) -> f64 {
 }
 
 /// Assembles the normal equations at `poses`; returns the cost (with μ).
-fn linearize(
+pub(crate) fn linearize(
     factors: &[Factor],
     poses: &[Isometry3<f64>],
     system: &mut NormalEquations<6>,

@@ -71,6 +71,8 @@ pub(crate) struct NormalEquations<const B: usize> {
     /// True when `l_values` holds a valid factor.
     factored: bool,
     workspace: MemBuffer,
+    /// Scratch for solves with several right-hand sides, and how many it fits.
+    multi_workspace: Option<(usize, MemBuffer)>,
 }
 
 impl<const B: usize> NormalEquations<B> {
@@ -217,6 +219,7 @@ impl<const B: usize> NormalEquations<B> {
             l_values,
             factored: false,
             workspace,
+            multi_workspace: None,
         })
     }
 
@@ -386,6 +389,47 @@ impl<const B: usize> NormalEquations<B> {
         let rhs = MatMut::from_column_major_slice_mut(step, n, 1);
         llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.workspace));
         step.iter().all(|v| v.is_finite())
+    }
+
+    /// Solves `(H + D) X = R` in place for the `ncols` right-hand sides stored column-major
+    /// in `rhs` (each of length [`NormalEquations::dim`]) with the last factor.
+    ///
+    /// Returns `false` if there is no valid factor, the sizes disagree or a result is not
+    /// finite.
+    pub fn solve_columns(&mut self, rhs: &mut [f64], ncols: usize) -> bool {
+        let n = self.dim();
+        if !self.factored || ncols == 0 || rhs.len() != n * ncols {
+            return false;
+        }
+        if self
+            .multi_workspace
+            .as_ref()
+            .is_none_or(|(k, _)| *k < ncols)
+        {
+            let req = self.symbolic.solve_in_place_scratch::<f64>(ncols, Par::Seq);
+            let Ok(mem) = MemBuffer::try_new(req) else {
+                return false;
+            };
+            self.multi_workspace = Some((ncols, mem));
+        }
+        let Some((_, mem)) = self.multi_workspace.as_mut() else {
+            return false;
+        };
+        let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.l_values);
+        let x = MatMut::from_column_major_slice_mut(rhs, n, ncols);
+        llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(mem));
+        rhs.iter().all(|v| v.is_finite())
+    }
+
+    /// Block column of each variable (`None` for held variables), indexed by variable.
+    pub fn block_of(&self, num_vars: usize) -> Vec<Option<usize>> {
+        let mut out = vec![None; num_vars];
+        for (b, &v) in self.var_of.iter().enumerate() {
+            if v < num_vars {
+                out[v] = Some(b);
+            }
+        }
+        out
     }
 
     /// True when a valid numeric factor is available.
