@@ -5,11 +5,17 @@
 //! with a sample point within its footprint radius (half its diameter) of the boulder's
 //! centre; a landmark of unknown size marks the cell its centroid falls in.
 //!
-//! A stereo centroid lies on the visible face of the boulder, a few centimetres towards
-//! the camera from the boulder's centre; landmarks seen from all around average this out,
-//! and the footprint test uses the landmark position as it is.
+//! A stereo centroid lies on the visible face of the boulder, towards the camera from the
+//! boulder's centre by a fraction of its radius; a rover mostly sees a boulder from one
+//! side, so this does not average out. [`rock_grid_from_detections`] moves every detection
+//! of known size that far away from the rover (horizontally) before fusing, clusters with
+//! a radius wide enough to keep a large boulder's detections from different sides
+//! together, and paints the footprints of the boulders seen often enough. On the synthetic
+//! mission (10 seeds, BENCHMARKS.md) the face correction is worth +0.035 F1, the wider
+//! clusters +0.02, and the third observation (spurious clusters) +0.01.
 
-use segloc_maps::{LacGrid, Landmark};
+use crate::landmarks::{fuse_detections, FusionConfig};
+use segloc_maps::{Detection, DetectionSet, LacGrid, Landmark};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of [`rock_grid`].
@@ -24,17 +30,82 @@ pub struct RockGridConfig {
     pub footprint_scale: f64,
     /// Sample points per cell side (4 in the LAC ground truth).
     pub samples_per_side: usize,
+    /// [`rock_grid_from_detections`]: a detection of known size is moved this fraction of
+    /// its radius away from the rover (horizontally): the stereo centroid of the visible
+    /// face sits that far in front of the boulder's centre (0: no correction).
+    pub face_offset_fraction: f64,
+    /// [`rock_grid_from_detections`]: detections within this distance (m) of a cluster's
+    /// centroid join it (replaces the fusion's radius for the rock map only).
+    pub cluster_radius_m: f64,
 }
 
 impl Default for RockGridConfig {
     fn default() -> Self {
         Self {
-            min_observations: 2,
+            min_observations: 3,
             min_size_m: 0.0,
             footprint_scale: 1.0,
             samples_per_side: 4,
+            face_offset_fraction: 1.0 / 3.0,
+            cluster_radius_m: 0.3,
         }
     }
+}
+
+/// Move each detection of known size `fraction` × its radius away from the rover that made
+/// it, horizontally: from the centroid of the boulder's visible face to its centre.
+/// Detections without a size or a rover position, or at the rover's position, are kept.
+///
+/// ```
+/// use nalgebra::Point3;
+/// use segloc::mapping::rock_footprint::shift_to_boulder_centres;
+/// use segloc_maps::Detection;
+/// let mut d = [Detection { frame: 0, p_world: Point3::new(3.0, 0.0, 0.1),
+///     rover_position: Some(Point3::new(0.0, 0.0, 0.3)), size_m: Some(0.3), score: None }];
+/// shift_to_boulder_centres(&mut d, 1.0 / 3.0);
+/// assert!((d[0].p_world.x - 3.05).abs() < 1e-12); // a third of the 0.15 m radius
+/// ```
+pub fn shift_to_boulder_centres(detections: &mut [Detection], fraction: f64) {
+    if !(fraction.is_finite() && fraction != 0.0) {
+        return;
+    }
+    for d in detections {
+        let (Some(rover), Some(size)) = (d.rover_position, d.size_m) else {
+            continue;
+        };
+        let away = d.p_world.xy() - rover.xy();
+        let range = away.norm();
+        if !(size.is_finite() && size > 0.0 && range > 1e-9) {
+            continue;
+        }
+        let step = away * (fraction * 0.5 * size / range);
+        d.p_world.x += step.x;
+        d.p_world.y += step.y;
+    }
+}
+
+/// The rock grid of raw detections (world frame, with rover positions and sizes): centroids
+/// moved to the boulders' centres ([`shift_to_boulder_centres`]), fused with `fusion` but
+/// the rock map's own cluster radius, and painted by [`rock_grid`]. Returns the grid and
+/// the number of fused boulders.
+pub fn rock_grid_from_detections(
+    detections: &DetectionSet,
+    grid: &LacGrid,
+    fusion: &FusionConfig,
+    config: &RockGridConfig,
+) -> (LacGrid, usize) {
+    let mut shifted = detections.clone();
+    shift_to_boulder_centres(&mut shifted.detections, config.face_offset_fraction);
+    let fusion = FusionConfig {
+        cluster_radius_m: if config.cluster_radius_m.is_finite() && config.cluster_radius_m > 0.0 {
+            config.cluster_radius_m
+        } else {
+            fusion.cluster_radius_m
+        },
+        ..fusion.clone()
+    };
+    let map = fuse_detections(&shifted, &fusion);
+    (rock_grid(&map.landmarks, grid, config), map.len())
 }
 
 /// The rock grid of `landmarks` on the geometry of `grid` (heights copied from it).
@@ -161,5 +232,72 @@ mod tests {
         // just outside the grid but overlapping it
         let g = rock_grid(&[lm(1.55, 0.075, Some(0.2), 3)], &grid, &cfg);
         assert_eq!(g.rock_count(), 1);
+    }
+
+    fn det(p: [f64; 3], rover: [f64; 3], size: Option<f64>) -> Detection {
+        Detection {
+            frame: 0,
+            p_world: Point3::new(p[0], p[1], p[2]),
+            rover_position: Some(Point3::new(rover[0], rover[1], rover[2])),
+            size_m: size,
+            score: None,
+        }
+    }
+
+    #[test]
+    fn face_centroids_move_to_the_boulder_centre() {
+        let mut d = vec![
+            det([0.0, 3.0, 0.1], [0.0, 0.0, 0.3], Some(0.6)),
+            det([1.0, 1.0, 0.1], [0.0, 0.0, 0.3], None),
+            det([2.0, 2.0, 0.1], [2.0, 2.0, 0.3], Some(0.2)),
+        ];
+        shift_to_boulder_centres(&mut d, 0.5);
+        assert!((d[0].p_world - Point3::new(0.0, 3.15, 0.1)).norm() < 1e-12);
+        assert_eq!(d[1].p_world, Point3::new(1.0, 1.0, 0.1)); // no size
+        assert_eq!(d[2].p_world, Point3::new(2.0, 2.0, 0.1)); // at the rover
+        let before = d.clone();
+        shift_to_boulder_centres(&mut d, f64::NAN);
+        assert_eq!(d, before);
+    }
+
+    #[test]
+    fn a_boulder_seen_from_two_sides_paints_its_own_footprint() {
+        // a 0.4 m boulder centred at (2.0, 0.0) whose detections sit a third of its radius
+        // in front of it, seen from the west and from the east
+        let grid = LacGrid::new(60, 0.15);
+        let (r, f) = (0.2, 1.0 / 3.0);
+        let mut set = DetectionSet::new("t", "world", true);
+        for k in 0..4 {
+            let y = 0.002 * k as f64;
+            set.detections
+                .push(det([2.0 - f * r, y, 0.1], [-1.0, y, 0.3], Some(2.0 * r)));
+            set.detections
+                .push(det([2.0 + f * r, y, 0.1], [5.0, y, 0.3], Some(2.0 * r)));
+        }
+        // a spurious pair and a boulder seen only twice stay out (fewer than 3 observations)
+        for k in 0..2 {
+            set.detections.push(det(
+                [-2.0, 2.0 + 0.01 * k as f64, 0.0],
+                [-2.0, 0.0, 0.3],
+                Some(0.1),
+            ));
+        }
+        let config = RockGridConfig::default();
+        let (g, boulders) =
+            rock_grid_from_detections(&set, &grid, &FusionConfig::default(), &config);
+        assert_eq!(boulders, 2);
+        let centred = rock_grid(&[lm(2.0, 0.0, Some(2.0 * r), 8)], &grid, &config);
+        assert!(centred.rock_count() > 4);
+        assert_eq!(g.rock, centred.rock);
+        // without the face correction the default fusion radius splits the boulder in two
+        let raw = RockGridConfig {
+            face_offset_fraction: 0.0,
+            cluster_radius_m: 0.05,
+            ..config
+        };
+        let (g2, boulders2) =
+            rock_grid_from_detections(&set, &grid, &FusionConfig::default(), &raw);
+        assert_eq!(boulders2, 3);
+        assert_ne!(g2.rock, centred.rock);
     }
 }

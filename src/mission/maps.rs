@@ -1,10 +1,12 @@
 //! The LAC maps of the mission: ground points of both sessions re-projected with the
-//! optimised poses into the height map, fused boulders of both sessions into the rock map,
-//! both scored against the moon's ground truth.
+//! optimised poses into the height map, the boulder detections of both sessions into the
+//! rock map ([`rock_grid_from_detections`]: centroids moved from the visible face to the
+//! boulder's centre, fused, footprints painted), both scored against the moon's ground
+//! truth.
 
 use super::MissionConfig;
-use crate::landmarks::fuse_detections;
-use crate::mapping::{rock_grid, score, HeightMapBuilder, LacScore, ScoreError};
+use crate::mapping::rock_footprint::rock_grid_from_detections;
+use crate::mapping::{score, HeightMapBuilder, LacScore, ScoreError};
 use crate::sim::session::SessionLog;
 use nalgebra::Isometry3;
 use segloc_maps::{DetectionSet, LacGrid};
@@ -41,12 +43,12 @@ pub fn build_maps(
         all.detections.extend(set.detections);
     }
     let height_grid = heights.build();
-    let map = fuse_detections(&all, &config.fusion);
-    let grid = rock_grid(&map.landmarks, &height_grid, &config.rock_grid);
+    let (grid, landmarks) =
+        rock_grid_from_detections(&all, &height_grid, &config.fusion, &config.rock_grid);
     let score = score(&grid, truth, Some(mission_seconds))?;
     Ok(MissionMaps {
         grid,
         score,
-        landmarks: map.len(),
+        landmarks,
     })
 }
