@@ -4,6 +4,8 @@ mod common;
 
 use common::segloc;
 use segloc::eval::merge::{evaluate_merge, MergeEvalOptions};
+use segloc::landmarks::view_bias::{estimate_view_bias, LUNARLOC_VIEW_BIAS_M};
+use segloc::landmarks::FusionConfig;
 use segloc::merge::{merge_maps, MapStatus, MergeConfig};
 use segloc::relocalize::RelocalizeConfig;
 use segloc::sim::boulder_field::{two_sessions, FieldConfig};
@@ -46,6 +48,7 @@ fn real_agents_are_placed_within_centimetres_and_decoys_never() {
         decoys: 1,
         trials: 4,
         seed: 3,
+        view_bias_m: LUNARLOC_VIEW_BIAS_M,
     };
     let report = evaluate_merge(&data, &options, &RelocalizeConfig::default(), |_, _| {}).unwrap();
     assert_eq!(report.decoys_placed, 0);
@@ -127,4 +130,29 @@ fn mixed_gravity_conventions_are_refused() {
     )
     .unwrap_err();
     assert!(err.to_string().contains("dof 6"), "{err}");
+}
+
+#[test]
+fn the_viewpoint_bias_estimated_from_the_traverses_matches_the_constant() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let sets: Vec<_> = (1..=17)
+        .map(|n| {
+            segloc_maps::read_lunarloc_traverse(&data.join(format!("lunarloc/traverse_{n}.csv")))
+                .unwrap()
+                .detections()
+        })
+        .collect();
+    let config = FusionConfig::default();
+    let all = estimate_view_bias(&sets, &config).unwrap();
+    assert!(all.boulders > 200, "{all:?}");
+    assert!((all.bias_m - LUNARLOC_VIEW_BIAS_M).abs() < 0.002, "{all:?}");
+    // Each half of the traverses on its own gives about the same value.
+    let (odd, even): (Vec<_>, Vec<_>) = sets.into_iter().enumerate().partition(|(k, _)| k % 2 == 0);
+    for half in [odd, even] {
+        let sets: Vec<_> = half.into_iter().map(|(_, s)| s).collect();
+        let e = estimate_view_bias(&sets, &config).unwrap();
+        assert!((e.bias_m - LUNARLOC_VIEW_BIAS_M).abs() < 0.003, "{e:?}");
+    }
 }

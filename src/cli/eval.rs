@@ -67,6 +67,10 @@ pub enum EvalCommand {
         /// every single traverse's, against the LAC ground truth.
         #[arg(long)]
         rock_map: bool,
+        /// Viewpoint-bias correction (m) of the detections when each agent's map is fused
+        /// (the value measured on the LunarLoc traverses by default; 0 = none).
+        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_M)]
+        view_bias_m: f64,
     },
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
@@ -127,9 +131,10 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             rock_map: true,
             seed,
             json,
+            view_bias_m,
             ..
         } => {
-            let r = merged_rock_map(data, *seed, config)?;
+            let r = merged_rock_map(data, *seed, *view_bias_m, config)?;
             if *json {
                 print_json(&r)?;
             } else {
@@ -151,6 +156,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             trials,
             seed,
             json,
+            view_bias_m,
             ..
         } => {
             if *agents < 2 || *trials == 0 {
@@ -161,11 +167,13 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
                 decoys: *decoys,
                 trials: *trials,
                 seed: *seed,
+                view_bias_m: *view_bias_m,
             };
             let report = evaluate_merge(data, &options, config, |_, _| {})?;
             if *json {
                 let mut value = serde_json::to_value(&report)?;
                 value["config"] = json!(config);
+                value["view_bias_m"] = json!(view_bias_m);
                 print_json(&value)?;
             } else {
                 for (k, t) in report.trials.iter().enumerate() {
