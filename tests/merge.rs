@@ -4,7 +4,9 @@ mod common;
 
 use common::segloc;
 use segloc::eval::merge::{evaluate_merge, MergeEvalOptions};
-use segloc::landmarks::view_bias::{estimate_view_bias, LUNARLOC_VIEW_BIAS_M};
+use segloc::landmarks::view_bias::{
+    estimate_view_bias, LUNARLOC_VIEW_BIAS_M, LUNARLOC_VIEW_BIAS_SIGMA_M,
+};
 use segloc::landmarks::FusionConfig;
 use segloc::merge::{merge_maps, MapStatus, MergeConfig};
 use segloc::relocalize::RelocalizeConfig;
@@ -49,19 +51,20 @@ fn real_agents_are_placed_within_centimetres_and_decoys_never() {
         trials: 4,
         seed: 3,
         view_bias_m: LUNARLOC_VIEW_BIAS_M,
+        view_bias_sigma_m: LUNARLOC_VIEW_BIAS_SIGMA_M,
     };
     let report = evaluate_merge(&data, &options, &RelocalizeConfig::default(), |_, _| {}).unwrap();
     assert_eq!(report.decoys_placed, 0);
     assert_eq!(report.placed, report.agents, "a real agent was left out");
-    // The issue asks for 1 cm and 0.1°; about 5% of placements land between that and
-    // 1.3 cm / 0.18° (the reference traverse's own landmark bias; see BENCHMARKS.md).
+    // The issue's bound: 1 cm and 0.1° for every placed agent.
+    assert_eq!(report.placed_outside_1cm_0p1deg, 0);
     assert!(
-        report.translation_error_m.max <= 0.015,
+        report.translation_error_m.max <= 0.01,
         "{:?}",
         report.translation_error_m
     );
     assert!(
-        report.rotation_error_deg.max <= 0.2,
+        report.rotation_error_deg.max <= 0.1,
         "{:?}",
         report.rotation_error_deg
     );
@@ -146,8 +149,13 @@ fn the_viewpoint_bias_estimated_from_the_traverses_matches_the_constant() {
         .collect();
     let config = FusionConfig::default();
     let all = estimate_view_bias(&sets, &config).unwrap();
-    assert!(all.boulders > 200, "{all:?}");
+    assert!(all.boulders > 100, "{all:?}");
     assert!((all.bias_m - LUNARLOC_VIEW_BIAS_M).abs() < 0.002, "{all:?}");
+    assert!(
+        (all.sigma_m - LUNARLOC_VIEW_BIAS_SIGMA_M).abs() < 0.003,
+        "{all:?}"
+    );
+    assert!(all.pooled_bias_m > all.bias_m, "{all:?}");
     // Each half of the traverses on its own gives about the same value.
     let (odd, even): (Vec<_>, Vec<_>) = sets.into_iter().enumerate().partition(|(k, _)| k % 2 == 0);
     for half in [odd, even] {

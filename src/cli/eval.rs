@@ -71,6 +71,10 @@ pub enum EvalCommand {
         /// (the value measured on the LunarLoc traverses by default; 0 = none).
         #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_M)]
         view_bias_m: f64,
+        /// Boulder-to-boulder spread (m) of the viewpoint bias, modelled in the landmark
+        /// covariances along each landmark's mean line of sight (0 = not modelled).
+        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
+        view_bias_sigma_m: f64,
     },
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
@@ -132,9 +136,13 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             seed,
             json,
             view_bias_m,
+            view_bias_sigma_m,
             ..
         } => {
-            let r = merged_rock_map(data, *seed, *view_bias_m, config)?;
+            let mut fusion = config.landmarks.clone();
+            fusion.view_bias_m = *view_bias_m;
+            fusion.view_bias_sigma_m = *view_bias_sigma_m;
+            let r = merged_rock_map(data, *seed, &fusion, config)?;
             if *json {
                 print_json(&r)?;
             } else {
@@ -157,6 +165,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             seed,
             json,
             view_bias_m,
+            view_bias_sigma_m,
             ..
         } => {
             if *agents < 2 || *trials == 0 {
@@ -168,12 +177,14 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
                 trials: *trials,
                 seed: *seed,
                 view_bias_m: *view_bias_m,
+                view_bias_sigma_m: *view_bias_sigma_m,
             };
             let report = evaluate_merge(data, &options, config, |_, _| {})?;
             if *json {
                 let mut value = serde_json::to_value(&report)?;
                 value["config"] = json!(config);
                 value["view_bias_m"] = json!(view_bias_m);
+                value["view_bias_sigma_m"] = json!(view_bias_sigma_m);
                 print_json(&value)?;
             } else {
                 for (k, t) in report.trials.iter().enumerate() {

@@ -40,6 +40,12 @@ pub struct FusionConfig {
     /// traverses the offset, estimated from boulders seen from several directions
     /// ([`view_bias::estimate_view_bias`]), is about 1.4 cm at every range.
     pub view_bias_m: f64,
+    /// Spread (m) of the viewpoint bias from boulder to boulder (0 = not modelled, the
+    /// default). When positive, a landmark's covariance gains `σ² m mᵀ`, with `m` the mean
+    /// horizontal line of sight of its detections: length 1 for a boulder seen from one
+    /// direction (its centroid keeps its own bias), near 0 for one seen from all sides
+    /// (the biases cancel). Needs rover positions.
+    pub view_bias_sigma_m: f64,
 }
 
 impl Default for FusionConfig {
@@ -51,6 +57,7 @@ impl Default for FusionConfig {
             max_range_m: 8.0,
             repeatability_m: 0.01,
             view_bias_m: 0.0,
+            view_bias_sigma_m: 0.0,
         }
     }
 }

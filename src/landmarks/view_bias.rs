@@ -17,10 +17,13 @@
 use super::{cluster::cluster_points, FusionConfig};
 
 /// The viewpoint bias (m) of the LunarLoc boulder detections, estimated with
-/// [`estimate_view_bias`] from the 17 traverses (all in the world frame): 1.43 cm over all,
-/// 1.56 cm from the odd-numbered and 1.31 cm from the even-numbered traverses alone, about
-/// the same from 1.5 m to 4.5 m range.
-pub const LUNARLOC_VIEW_BIAS_M: f64 = 0.014;
+/// [`estimate_view_bias`] from the 17 traverses (all in the world frame): the median over
+/// the 150 boulders seen from diverse directions is 0.8 cm (pooled over detections 1.4 cm:
+/// the boulders seen most often, the large ones, lie farther behind their faces).
+pub const LUNARLOC_VIEW_BIAS_M: f64 = 0.008;
+
+/// The spread (m) of that bias from boulder to boulder ([`ViewBias::sigma_m`]).
+pub const LUNARLOC_VIEW_BIAS_SIGMA_M: f64 = 0.01;
 use nalgebra::Vector3;
 use segloc_maps::{Detection, DetectionSet};
 
@@ -41,15 +44,31 @@ fn line_of_sight(detection: &Detection) -> Option<Vector3<f64>> {
     (n > 1e-6).then(|| Vector3::new(d.x / n, d.y / n, 0.0))
 }
 
+/// The mean horizontal line of sight of `detections` (those with rover positions): a
+/// vector of length 1 when all look the same way, near 0 when they surround the boulder;
+/// `None` when none has a rover position.
+pub fn mean_line_of_sight(detections: &[&Detection]) -> Option<Vector3<f64>> {
+    let rays: Vec<Vector3<f64>> = detections.iter().filter_map(|d| line_of_sight(d)).collect();
+    (!rays.is_empty()).then(|| rays.iter().sum::<Vector3<f64>>() / rays.len() as f64)
+}
+
 /// The estimated viewpoint bias.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ViewBias {
-    /// How far (m) the detections lie from the boulder centres toward the camera: the
-    /// value for [`FusionConfig::view_bias_m`].
+    /// How far (m) the detections lie from the boulder centres toward the camera, the
+    /// median over boulders: the value for [`FusionConfig::view_bias_m`] (every landmark
+    /// counts once in an alignment, whatever its number of detections).
     pub bias_m: f64,
-    /// Boulders seen by two or more sets (those that fix the estimate).
+    /// The same, pooled over detections (boulders seen more often weigh more; larger
+    /// boulders are seen more often and lie farther behind their visible faces).
+    pub pooled_bias_m: f64,
+    /// Robust spread (m) of the per-boulder bias (1.4826 × MAD): the value for
+    /// [`FusionConfig::view_bias_sigma_m`].
+    pub sigma_m: f64,
+    /// Boulders seen by two or more sets from directions diverse enough to fit a bias of
+    /// their own (mean line of sight shorter than 0.8).
     pub boulders: usize,
-    /// Detections of those boulders.
+    /// Detections of boulders seen by two or more sets.
     pub detections: usize,
 }
 
@@ -105,9 +124,42 @@ pub fn estimate_view_bias(sets: &[DetectionSet], config: &FusionConfig) -> Optio
             break;
         }
     }
+    // Per boulder: least squares for (centre x, centre y, bias) in the plane.
+    let mut per_boulder: Vec<f64> = clusters
+        .iter()
+        .filter_map(|members| {
+            let rays: Vec<Vector3<f64>> = members.iter().map(|&i| rays[i as usize]).collect();
+            let mean = rays.iter().sum::<Vector3<f64>>() / rays.len() as f64;
+            if mean.norm() > 0.8 {
+                return None;
+            }
+            let mut normal = nalgebra::Matrix3::<f64>::zeros();
+            let mut rhs = Vector3::zeros();
+            for (&i, u) in members.iter().zip(&rays) {
+                let p = points[i as usize];
+                let rows = [Vector3::new(1.0, 0.0, u.x), Vector3::new(0.0, 1.0, u.y)];
+                for (row, value) in rows.iter().zip([p.x, p.y]) {
+                    normal += row * row.transpose();
+                    rhs += row * value;
+                }
+            }
+            normal.lu().solve(&rhs).map(|x| -x.z)
+        })
+        .collect();
+    if per_boulder.is_empty() {
+        return None;
+    }
+    let median_bias = super::estimate::median(&mut per_boulder);
+    let mut deviations: Vec<f64> = per_boulder
+        .iter()
+        .map(|b| (b - median_bias).abs())
+        .collect();
+    let sigma_m = 1.4826 * super::estimate::median(&mut deviations);
     Some(ViewBias {
-        bias_m: -bias,
-        boulders: clusters.len(),
+        bias_m: median_bias,
+        pooled_bias_m: -bias,
+        sigma_m,
+        boulders: per_boulder.len(),
         detections,
     })
 }
@@ -166,6 +218,11 @@ mod tests {
     fn recovers_the_bias_from_boulders_seen_from_several_sides() {
         let estimate = estimate_view_bias(&biased_sets(0.015), &FusionConfig::default()).unwrap();
         assert!((estimate.bias_m - 0.015).abs() < 1e-4, "{estimate:?}");
+        assert!(
+            (estimate.pooled_bias_m - 0.015).abs() < 1e-4,
+            "{estimate:?}"
+        );
+        assert!(estimate.sigma_m < 1e-6, "{estimate:?}");
         assert_eq!(estimate.boulders, 36);
         let none = estimate_view_bias(&biased_sets(0.0), &FusionConfig::default()).unwrap();
         assert!(none.bias_m.abs() < 1e-6);
@@ -190,6 +247,16 @@ mod tests {
             ..sets[0].detections[0].clone()
         };
         assert_eq!(corrected(&bare, 0.015).p_world, bare.p_world);
+    }
+
+    #[test]
+    fn mean_line_of_sight_is_long_from_one_side_and_short_from_all() {
+        let sets = biased_sets(0.0);
+        let one_side: Vec<&Detection> = sets[0].detections.iter().take(3).collect();
+        let m = mean_line_of_sight(&one_side).unwrap();
+        assert!((m.norm() - 1.0).abs() < 1e-9);
+        let opposite = [&sets[0].detections[0], &sets[1].detections[0]];
+        assert!(mean_line_of_sight(&opposite).unwrap().norm() < 1e-9);
     }
 
     #[test]
