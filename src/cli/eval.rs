@@ -67,6 +67,14 @@ pub enum EvalCommand {
         /// every single traverse's, against the LAC ground truth.
         #[arg(long)]
         rock_map: bool,
+        /// Viewpoint-bias correction (m) of the detections when each agent's map is fused
+        /// (the value measured on the LunarLoc traverses by default; 0 = none).
+        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_M)]
+        view_bias_m: f64,
+        /// Boulder-to-boulder spread (m) of the viewpoint bias, modelled in the landmark
+        /// covariances along each landmark's mean line of sight (0 = not modelled).
+        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
+        view_bias_sigma_m: f64,
     },
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
@@ -127,9 +135,14 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             rock_map: true,
             seed,
             json,
+            view_bias_m,
+            view_bias_sigma_m,
             ..
         } => {
-            let r = merged_rock_map(data, *seed, config)?;
+            let mut fusion = config.landmarks.clone();
+            fusion.view_bias_m = *view_bias_m;
+            fusion.view_bias_sigma_m = *view_bias_sigma_m;
+            let r = merged_rock_map(data, *seed, &fusion, config)?;
             if *json {
                 print_json(&r)?;
             } else {
@@ -151,6 +164,8 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             trials,
             seed,
             json,
+            view_bias_m,
+            view_bias_sigma_m,
             ..
         } => {
             if *agents < 2 || *trials == 0 {
@@ -161,11 +176,15 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
                 decoys: *decoys,
                 trials: *trials,
                 seed: *seed,
+                view_bias_m: *view_bias_m,
+                view_bias_sigma_m: *view_bias_sigma_m,
             };
             let report = evaluate_merge(data, &options, config, |_, _| {})?;
             if *json {
                 let mut value = serde_json::to_value(&report)?;
                 value["config"] = json!(config);
+                value["view_bias_m"] = json!(view_bias_m);
+                value["view_bias_sigma_m"] = json!(view_bias_sigma_m);
                 print_json(&value)?;
             } else {
                 for (k, t) in report.trials.iter().enumerate() {

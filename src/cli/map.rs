@@ -42,6 +42,16 @@ pub enum MapCommand {
         /// Write every map that could not be joined to the reference here, on its own.
         #[arg(long, value_name = "DIR")]
         disconnected_dir: Option<PathBuf>,
+        /// Viewpoint-bias correction (m) for detection / traverse inputs with rover
+        /// positions: each detection is pushed this far from the rover along its line of
+        /// sight before fusion (default: the value measured on the LunarLoc traverses;
+        /// 0 = none; map-file inputs are used as they are).
+        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_M)]
+        view_bias_m: f64,
+        /// Boulder-to-boulder spread (m) of that bias, modelled in the landmark covariances
+        /// along each landmark's mean line of sight (0 = not modelled).
+        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
+        view_bias_sigma_m: f64,
         /// Print one JSON object.
         #[arg(long)]
         json: bool,
@@ -91,12 +101,15 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             output,
             reference,
             disconnected_dir,
+            view_bias_m,
+            view_bias_sigma_m,
             json,
         } => merge(
             inputs,
             output,
             *reference,
             disconnected_dir.as_deref(),
+            (*view_bias_m, *view_bias_sigma_m),
             *json,
             config,
         ),
@@ -135,13 +148,17 @@ fn merge(
     output: &std::path::Path,
     reference: usize,
     disconnected_dir: Option<&std::path::Path>,
+    (view_bias_m, view_bias_sigma_m): (f64, f64),
     json: bool,
     config: &RelocalizeConfig,
 ) -> Result<i32> {
     // Load everything first: a bad input stops the merge before anything is written.
+    let mut fusion = config.landmarks.clone();
+    fusion.view_bias_m = view_bias_m;
+    fusion.view_bias_sigma_m = view_bias_sigma_m;
     let mut maps = Vec::with_capacity(inputs.len());
     for path in inputs {
-        let (mut map, _) = load_map(path, &config.landmarks)?;
+        let (mut map, _) = load_map(path, &fusion)?;
         if map.session.is_empty() {
             map.session = path.display().to_string();
         }

@@ -32,6 +32,12 @@ pub struct MergeEvalOptions {
     pub trials: usize,
     /// Seed.
     pub seed: u64,
+    /// Viewpoint-bias correction (m) used when fusing each agent's detections
+    /// ([`crate::landmarks::FusionConfig::view_bias_m`]); 0 = none.
+    pub view_bias_m: f64,
+    /// Boulder-to-boulder spread of that bias (m) in the landmark covariances
+    /// ([`crate::landmarks::FusionConfig::view_bias_sigma_m`]); 0 = not modelled.
+    pub view_bias_sigma_m: f64,
 }
 
 /// One agent's outcome in a trial.
@@ -92,6 +98,9 @@ pub fn evaluate_merge(
     config: &RelocalizeConfig,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<MergeEvalReport, MapError> {
+    let mut fusion = config.landmarks.clone();
+    fusion.view_bias_m = options.view_bias_m;
+    fusion.view_bias_sigma_m = options.view_bias_sigma_m;
     let detections: Vec<DetectionSet> = (1..=TRAVERSES)
         .map(|n| read_lunarloc_traverse(&traverse_path(data, n)).map(|t| t.detections()))
         .collect::<Result<_, _>>()?;
@@ -120,7 +129,7 @@ pub fn evaluate_merge(
                 set.session = format!("decoy_{n}");
             }
             let moved = set.transformed(&truth.inverse(), "agent");
-            maps.push(fuse_detections(&moved, &config.landmarks));
+            maps.push(fuse_detections(&moved, &fusion));
             world_from_map.push(truth);
         }
         let report = merge_maps(&maps, 0, config, &MergeConfig::default()).map_err(|e| {
@@ -210,6 +219,7 @@ fn summarise(trials: Vec<MergeTrial>) -> MergeEvalReport {
 pub fn merge_all(
     data: &Path,
     seed: u64,
+    fusion: &crate::landmarks::FusionConfig,
     config: &RelocalizeConfig,
 ) -> Result<(crate::merge::MergeReport, ObjectMap), MapError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -223,7 +233,7 @@ pub fn merge_all(
         }
         maps.push(fuse_detections(
             &set.transformed(&truth.inverse(), "agent"),
-            &config.landmarks,
+            fusion,
         ));
     }
     let report = merge_maps(&maps, 0, config, &MergeConfig::default()).map_err(|e| {
@@ -258,6 +268,7 @@ pub struct RockMapComparison {
 pub fn merged_rock_map(
     data: &Path,
     seed: u64,
+    fusion: &crate::landmarks::FusionConfig,
     config: &RelocalizeConfig,
 ) -> Result<RockMapComparison, MapError> {
     use crate::mapping::{rock_grid, score, RockGridConfig};
@@ -271,12 +282,12 @@ pub fn merged_rock_map(
         })?;
         Ok((s.rock_f1, s.rock_precision, s.rock_recall))
     };
-    let (_, merged_world) = merge_all(data, seed, config)?;
+    let (_, merged_world) = merge_all(data, seed, fusion, config)?;
     let (merged_f1, merged_precision, merged_recall) = f1_of(&merged_world)?;
     let mut single_f1 = Vec::new();
     for n in 1..=TRAVERSES {
         let set = read_lunarloc_traverse(&traverse_path(data, n))?.detections();
-        single_f1.push((n, f1_of(&fuse_detections(&set, &config.landmarks))?.0));
+        single_f1.push((n, f1_of(&fuse_detections(&set, fusion))?.0));
     }
     let best_single = single_f1
         .iter()

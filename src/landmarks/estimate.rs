@@ -25,13 +25,15 @@ pub fn landmark_from(detections: &[&Detection], id: u32, config: &FusionConfig) 
         let sigma = 1.4826 * median(&mut deviations);
         variance[k] = sigma * sigma / n as f64 + config.repeatability_m * config.repeatability_m;
     }
+    let mut covariance = Matrix3::from_diagonal(&nalgebra::Vector3::from(variance));
+    if config.view_bias_sigma_m > 0.0 {
+        if let Some(m) = super::view_bias::mean_line_of_sight(detections) {
+            covariance += m * m.transpose() * (config.view_bias_sigma_m * config.view_bias_sigma_m);
+        }
+    }
     let mut sizes: Vec<f64> = detections.iter().filter_map(|d| d.size_m).collect();
     let size_m = (!sizes.is_empty()).then(|| median(&mut sizes));
-    let mut landmark = Landmark::new(
-        id,
-        position,
-        Matrix3::from_diagonal(&nalgebra::Vector3::from(variance)),
-    );
+    let mut landmark = Landmark::new(id, position, covariance);
     landmark.size_m = size_m;
     landmark.observations = detections.len() as u32;
     landmark

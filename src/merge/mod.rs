@@ -48,6 +48,13 @@ pub struct MergeConfig {
     pub fuse_gate_m: f64,
     /// Sweeps of joint frame refinement against all other maps' landmarks (0: none).
     pub refine_sweeps: usize,
+    /// An accepted pairwise transform with fewer inliers than this is a weak pair: the
+    /// merge keeps it only if its inlier RMSE is at most `weak_pair_max_rmse_m`.
+    pub weak_pair_inliers: usize,
+    /// See `weak_pair_inliers` (m). True overlaps of the LunarLoc traverses with 6–9
+    /// inliers fit to at most 1.7 cm, chance coincidences of 5–7 boulders (a traverse
+    /// against a mirror image of itself) to 2.3–3.3 cm.
+    pub weak_pair_max_rmse_m: f64,
 }
 
 impl Default for MergeConfig {
@@ -57,6 +64,8 @@ impl Default for MergeConfig {
             outvoted_m: 0.10,
             fuse_gate_m: 0.10,
             refine_sweeps: 3,
+            weak_pair_inliers: 10,
+            weak_pair_max_rmse_m: 0.02,
         }
     }
 }
@@ -153,11 +162,13 @@ pub fn merge_maps(
     check_inputs(maps, reference, relocalize)?;
 
     let t = Instant::now();
-    let pairs = pairwise::relocalize_pairs(maps, relocalize)?;
+    let mut pairs = pairwise::relocalize_pairs(maps, relocalize)?;
+    for p in pairs.iter_mut() {
+        reject_weak_pair(p, config);
+    }
     let pairwise_ms = ms_since(t);
 
     let t = Instant::now();
-    let mut pairs = pairs;
     let centroids: Vec<_> = maps.iter().map(centroid).collect();
     let mut solved = frames::solve_frames(maps.len(), reference, &mut pairs, &centroids, config)?;
     let dof = relocalize
@@ -213,6 +224,24 @@ pub fn merge_maps(
         fuse_ms,
         time_ms: ms_since(started),
     })
+}
+
+/// Refuse an accepted pair that is weak (few inliers) and fits loosely.
+fn reject_weak_pair(pair: &mut PairOutcome, config: &MergeConfig) {
+    if pair.accepted
+        && pair.inliers < config.weak_pair_inliers
+        && pair.rmse_m > config.weak_pair_max_rmse_m
+    {
+        pair.accepted = false;
+        pair.a_from_b = None;
+        pair.reason = Some(format!(
+            "weak pair: {} inliers (< {}) with rmse {:.1} cm > {:.1} cm",
+            pair.inliers,
+            config.weak_pair_inliers,
+            pair.rmse_m * 100.0,
+            config.weak_pair_max_rmse_m * 100.0
+        ));
+    }
 }
 
 fn check_inputs(

@@ -28,6 +28,10 @@ pub struct PairOutcome {
     pub information: Matrix6<f64>,
     /// Inliers of the best hypothesis.
     pub inliers: usize,
+    /// Inlier residual RMSE (m) of the best hypothesis (0 when there is none).
+    pub rmse_m: f64,
+    /// Inliers of the runner-up hypothesis (0 when there is none).
+    pub runner_up_inliers: usize,
     /// Why it was refused or skipped.
     pub reason: Option<String>,
     /// Skipped by the cheap test (not relocalized at all).
@@ -82,6 +86,16 @@ pub fn relocalize_pairs(
                     .hypotheses
                     .first()
                     .map_or(0, |h| h.inlier_count),
+                rmse_m: answer
+                    .diagnostics
+                    .hypotheses
+                    .first()
+                    .map_or(0.0, |h| h.rmse_m),
+                runner_up_inliers: answer
+                    .diagnostics
+                    .hypotheses
+                    .get(1)
+                    .map_or(0, |h| h.inlier_count),
                 reason: answer.refusal.map(|r| r.to_string()),
                 skipped: false,
                 outvoted: false,
@@ -99,6 +113,8 @@ fn skipped(a: usize, b: usize, small: usize, count: usize, needed: usize) -> Pai
         a_from_b: None,
         information: Matrix6::zeros(),
         inliers: 0,
+        rmse_m: 0.0,
+        runner_up_inliers: 0,
         reason: Some(format!(
             "skipped: map {small} has {count} landmarks, an accepted transform needs {needed} inliers"
         )),

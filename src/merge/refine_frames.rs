@@ -4,7 +4,10 @@
 //! A map that overlaps several others is better fixed by all of them at once: each
 //! non-reference frame is re-aligned (robust refinement over re-associated mutual nearest
 //! neighbours, as in relocalization) to the landmarks of every other placed map, and the
-//! sweep is repeated a few times so that corrections propagate.
+//! sweep is repeated a few times so that corrections propagate. A landmark weighs by its
+//! largest variance, so one whose covariance is stretched along a line of sight (seen
+//! from one side only, see [`crate::landmarks::FusionConfig::view_bias_sigma_m`]) counts
+//! less than one seen from all sides.
 
 use crate::align::{refine, Dof, RefineConfig};
 use nalgebra::{Isometry3, Point3};
@@ -26,7 +29,7 @@ pub fn refine_frames(
         .map(|m| {
             m.landmarks
                 .iter()
-                .map(|l| 1.0 / (l.covariance.trace() / 3.0).max(1e-8))
+                .map(|l| 1.0 / largest_variance(&l.covariance).max(1e-8))
                 .collect()
         })
         .collect();
@@ -62,5 +65,28 @@ pub fn refine_frames(
                 reference_from_map[k] = Some(refined.prior_from_query);
             }
         }
+    }
+}
+
+/// The largest eigenvalue of a covariance (its trace / 3 if it is not finite).
+fn largest_variance(covariance: &nalgebra::Matrix3<f64>) -> f64 {
+    if !covariance.iter().all(|v| v.is_finite()) {
+        return covariance.trace() / 3.0;
+    }
+    let symmetric = (covariance + covariance.transpose()) * 0.5;
+    symmetric.symmetric_eigenvalues().max()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_covariance_stretched_along_a_line_of_sight_weighs_by_its_long_axis() {
+        let round = nalgebra::Matrix3::identity() * 1e-4;
+        let m = nalgebra::Vector3::new(0.6, 0.8, 0.0);
+        let stretched = round + m * m.transpose() * 1e-4;
+        assert!((largest_variance(&round) - 1e-4).abs() < 1e-12);
+        assert!((largest_variance(&stretched) - 2e-4).abs() < 1e-12);
     }
 }
