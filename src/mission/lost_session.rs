@@ -2,6 +2,8 @@
 //! relocalize a submap of the recent detections (odometry frame) against session 1's map,
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
+use super::fix_gate::{agrees, Tolerance};
+use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
     detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
@@ -22,6 +24,8 @@ pub struct LocalizedSession {
     pub poses: Vec<Isometry3<f64>>,
     /// Every relocalization attempt.
     pub attempts: Vec<Attempt>,
+    /// The odometry's biases as estimated at the end of the session.
+    pub odometry_bias: OdometryBias,
 }
 
 /// Run session 2 from `start`, believing it starts at `guess`, relocalizing against
@@ -45,6 +49,7 @@ pub fn localize_session(
     let mut graph = TrajectoryGraph::new();
     let mut attempts = Vec::new();
     let mut next_attempt_s = config.relocalize_period_s;
+    let mut gate = Gate::default();
     while sim.step() {
         let log = sim.log();
         progress.update(MissionStage::Driving {
@@ -60,9 +65,28 @@ pub fn localize_session(
         }
         next_attempt_s += config.relocalize_period_s;
         graph.extend(log, config)?;
-        let changed = attempt(log, config, relocalizer, &mut graph, &mut attempts)?;
+        let candidate = attempt(log, config, relocalizer, &graph, &mut attempts)?;
+        let confirmed = candidate.map_or_else(Vec::new, |c| gate.admit(c, &graph, config));
+        let changed = !confirmed.is_empty();
+        for c in confirmed {
+            let record = &mut attempts[c.attempt];
+            record.accepted = true;
+            record.refusal = None;
+            graph.add_relocalization(
+                c.k,
+                c.prior_from_rover,
+                c.information,
+                RobustKernel::Cauchy {
+                    c: config.robust_scale,
+                },
+            )?;
+            gate.last_fix_frame = Some(gate.last_fix_frame.map_or(c.k, |f| f.max(c.k)));
+        }
         if changed {
             graph.optimize()?;
+            if config.calibrate_odometry {
+                graph.calibrate(config, config.calibration_rounds)?;
+            }
             if let Some(world_from_session) = world_from_session_estimate(log, &graph) {
                 sim.set_world_from_session_estimate(&world_from_session);
             }
@@ -71,23 +95,96 @@ pub fn localize_session(
     let log = sim.finish();
     graph.extend(&log, config)?;
     graph.optimize()?;
+    if config.calibrate_odometry && graph.num_fixes() > 0 {
+        graph.calibrate(config, config.calibration_rounds)?;
+    }
     let poses = graph.poses_in_prior();
     Ok(LocalizedSession {
         log,
         poses,
         attempts,
+        odometry_bias: graph.bias,
     })
 }
 
-/// One relocalization of the submap ending at the latest frame; returns whether a factor
-/// was added.
+/// A relocalization the relocalizer accepted, before the gate has confirmed it.
+struct Candidate {
+    /// The relocalized frame.
+    k: usize,
+    /// Its measured pose in the prior map.
+    prior_from_rover: Isometry3<f64>,
+    /// Information of the measurement (right perturbation of `prior_from_rover`).
+    information: nalgebra::Matrix6<f64>,
+    /// Index of its record among the attempts.
+    attempt: usize,
+}
+
+/// The state of the consistency gate ([`super::fix_gate`]).
+#[derive(Default)]
+struct Gate {
+    /// The last result that was not confirmed, waiting for the next one.
+    pending: Option<Candidate>,
+    /// The latest frame with a relocalization in the graph.
+    last_fix_frame: Option<usize>,
+}
+
+impl Gate {
+    /// The candidates to add to the graph now (none, this one, or the pending one and this
+    /// one).
+    fn admit(
+        &mut self,
+        c: Candidate,
+        graph: &TrajectoryGraph,
+        config: &MissionConfig,
+    ) -> Vec<Candidate> {
+        if !config.gate_relocalizations {
+            return vec![c];
+        }
+        let tolerance = Tolerance {
+            position_m: config.gate_position_m,
+            yaw_rad: config.gate_yaw_deg.to_radians(),
+        };
+        let pose = |k: usize| {
+            graph
+                .graph
+                .pose(k as u64)
+                .unwrap_or_else(Isometry3::identity)
+        };
+        if let (Some(odom_from_prior), Some(last)) = (graph.odom_from_prior(), self.last_fix_frame)
+        {
+            let predicted = odom_from_prior.inverse() * pose(c.k);
+            let (sigma_m, sigma_yaw) = graph.odometry_sigma(last, c.k, config);
+            let widened = tolerance.widened(sigma_m, sigma_yaw, 3.0);
+            if agrees(&predicted, &c.prior_from_rover, &widened) {
+                self.pending = None;
+                return vec![c];
+            }
+        }
+        if let Some(p) = self.pending.take() {
+            let carried = p.prior_from_rover * pose(p.k).inverse() * pose(c.k);
+            let (sigma_m, sigma_yaw) = graph.odometry_sigma(p.k, c.k, config);
+            if agrees(
+                &carried,
+                &c.prior_from_rover,
+                &tolerance.widened(sigma_m, sigma_yaw, 3.0),
+            ) {
+                return vec![p, c];
+            }
+        }
+        self.pending = Some(c);
+        Vec::new()
+    }
+}
+
+/// One relocalization of the submap ending at the latest frame; returns the result when the
+/// relocalizer accepted it (recorded as awaiting confirmation by the gate).
 fn attempt(
     log: &SessionLog,
     config: &MissionConfig,
     relocalizer: &Relocalizer,
-    graph: &mut TrajectoryGraph,
+    graph: &TrajectoryGraph,
     attempts: &mut Vec<Attempt>,
-) -> Result<bool, MissionError> {
+) -> Result<Option<Candidate>, MissionError> {
     let k = log.frames.len() - 1;
     let now_s = log.frames[k].time_s;
     let mut first = log
@@ -113,12 +210,27 @@ fn attempt(
         j -= 1;
     }
     first = j;
-    // the submap in the odometry frame (the raw odometry estimate, as logged)
-    let odometry: Vec<Isometry3<f64>> = log
-        .frames
-        .iter()
-        .map(|f| log.ticks[f.tick].session_from_rover)
-        .collect();
+    // the submap in the odometry frame: the odometry chain with the current bias estimate
+    // taken out, placed at the graph's estimate of its first frame (only the shape matters
+    // to the relocalizer; the placement keeps the submap's frame near the graph's)
+    // (roll and pitch stay the logged ones, which the IMU's gravity fixes: composing the
+    // odometry's tilt would let it drift)
+    let start = log.ticks[log.frames[first].tick].session_from_rover;
+    let mut odometry = vec![Isometry3::identity(); first];
+    for (i, p) in graph
+        .corrected_odometry(first..k + 1)
+        .into_iter()
+        .enumerate()
+    {
+        let p = start * p;
+        let logged = log.ticks[log.frames[first + i].tick].session_from_rover;
+        let (roll, pitch, _) = se3::rpy_from_rotation(&logged.rotation);
+        let (_, _, yaw) = se3::rpy_from_rotation(&p.rotation);
+        odometry.push(Isometry3::from_parts(
+            p.translation,
+            se3::rotation_from_rpy(roll, pitch, yaw),
+        ));
+    }
     let set = detections_with_poses(log, &odometry, first..k + 1, "session2", "odom");
     let query = fuse_detections(&set, &config.fusion);
     let mut record = Attempt::pending(2, now_s, query.len());
@@ -128,7 +240,7 @@ fn attempt(
         Err(e) => {
             record.refusal = Some(format!("error: {e}"));
             attempts.push(record);
-            return Ok(false);
+            return Ok(None);
         }
     };
     record.inliers = reloc.inliers.len();
@@ -141,7 +253,7 @@ fn attempt(
                 .map_or_else(|| "refused".to_string(), |r| r.to_string()),
         );
         attempts.push(record);
-        return Ok(false);
+        return Ok(None);
     };
     // anchor: the frame nearest the matched landmarks (least drift relative to them)
     let matched = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
@@ -152,7 +264,7 @@ fn attempt(
     let error = world_from_rover_true.inverse() * prior_from_rover;
     let error_m = error.translation.vector.norm();
     let error_deg = error.rotation.angle().to_degrees();
-    record.accepted = true;
+    record.refusal = Some("not confirmed by the pose graph or the next relocalization".into());
     record.error_m = Some(error_m);
     record.error_deg = Some(error_deg);
     record.error_yaw_deg = Some(error.rotation.euler_angles().2.to_degrees());
@@ -162,14 +274,12 @@ fn attempt(
     let ad = se3::adjoint(&odom_from_rover);
     let information =
         ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
-    let index = graph.add_relocalization(k, prior_from_rover, information)?;
-    graph.graph.set_factor_kernel(
-        index,
-        RobustKernel::Cauchy {
-            c: config.robust_scale,
-        },
-    )?;
-    Ok(true)
+    Ok(Some(Candidate {
+        k,
+        prior_from_rover,
+        information,
+        attempt: attempts.len() - 1,
+    }))
 }
 
 /// The planner's `world_from_session`: the optimised latest pose composed with the inverse

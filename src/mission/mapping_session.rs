@@ -2,6 +2,7 @@
 //! relocalizes against (in the optimised session frame, which is the world frame up to
 //! drift since the start is known).
 
+use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
     detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
@@ -25,6 +26,8 @@ pub struct MappedSession {
     pub map: ObjectMap,
     /// Loop-closure attempts (recent submaps against the session's own earlier map).
     pub attempts: Vec<Attempt>,
+    /// The odometry's biases as estimated at the end of the session.
+    pub odometry_bias: OdometryBias,
 }
 
 /// Run session 1 from `start` for the mission's duration and build its map.
@@ -66,6 +69,7 @@ pub fn map_session(
         poses,
         map,
         attempts,
+        odometry_bias: graph.bias,
     })
 }
 
@@ -226,9 +230,10 @@ fn close_loop(
     let kernel = RobustKernel::Cauchy {
         c: config.robust_scale,
     };
-    graph
-        .graph
-        .add_between(j as u64, k as u64, j_from_k, information, kernel)?;
+    graph.add_loop_closure(j, k, j_from_k, information, kernel)?;
     graph.optimize()?;
+    if config.calibrate_odometry {
+        graph.calibrate(config, config.calibration_rounds)?;
+    }
     Ok(record)
 }

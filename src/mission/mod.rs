@@ -21,9 +21,11 @@
 //! println!("{}", serde_json::to_string(&report.report).unwrap());
 //! ```
 
+pub mod fix_gate;
 pub mod lost_session;
 pub mod mapping_session;
 pub mod maps;
+pub mod odometry_bias;
 pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod recording;
@@ -112,6 +114,26 @@ pub struct MissionConfig {
     pub vo_yaw_sigma_rad_per_m: f64,
     /// Odometry yaw noise per radian turned, 1 σ (graph weights).
     pub vo_yaw_sigma_per_rad_turned: f64,
+    /// Estimate the odometry's biases (scale, yaw drift per metre, yaw-rate scale) from the
+    /// fixes and correct the odometry factors and submaps with them.
+    pub calibrate_odometry: bool,
+    /// Alternations of bias estimate and graph solve per calibration.
+    pub calibration_rounds: usize,
+    /// Prior (1 σ) of the odometry's scale error, fraction.
+    pub vo_bias_prior_scale: f64,
+    /// Prior (1 σ) of the odometry's yaw drift, radians per metre.
+    pub vo_bias_prior_yaw_drift_rad_per_m: f64,
+    /// Prior (1 σ) of the odometry's yaw-rate scale error, fraction.
+    pub vo_bias_prior_yaw_scale: f64,
+    /// Session 2 adds a relocalization to the graph only when an independent estimate of the
+    /// same pose confirms it (the graph's prediction, or the previous result), see
+    /// [`fix_gate`].
+    pub gate_relocalizations: bool,
+    /// Gate: largest horizontal disagreement (m) of two estimates, before the odometry's
+    /// uncertainty between them is added.
+    pub gate_position_m: f64,
+    /// Gate: largest yaw disagreement (degrees), before the odometry's uncertainty.
+    pub gate_yaw_deg: f64,
     /// An accepted relocalization off by more than this (m) counts as wrong.
     pub wrong_translation_m: f64,
     /// An accepted relocalization off by more than this (degrees) counts as wrong.
@@ -143,9 +165,17 @@ impl Default for MissionConfig {
             start_map_max_turn_deg: 90.0,
             relocalization_information_scale: 1.0,
             robust_scale: 3.0,
-            vo_translation_sigma_m_per_m: 0.015,
-            vo_yaw_sigma_rad_per_m: 0.003,
-            vo_yaw_sigma_per_rad_turned: 0.005,
+            vo_translation_sigma_m_per_m: 0.008,
+            vo_yaw_sigma_rad_per_m: 0.0015,
+            vo_yaw_sigma_per_rad_turned: 0.003,
+            gate_relocalizations: true,
+            gate_position_m: 0.08,
+            gate_yaw_deg: 0.5,
+            calibrate_odometry: true,
+            calibration_rounds: 2,
+            vo_bias_prior_scale: 0.01,
+            vo_bias_prior_yaw_drift_rad_per_m: 0.0005,
+            vo_bias_prior_yaw_scale: 0.003,
             wrong_translation_m: 0.10,
             wrong_rotation_deg: 1.0,
             fusion: FusionConfig::default(),
@@ -186,6 +216,11 @@ impl MissionConfig {
             self.vo_translation_sigma_m_per_m,
             self.vo_yaw_sigma_rad_per_m,
             self.vo_yaw_sigma_per_rad_turned,
+            self.gate_position_m,
+            self.gate_yaw_deg,
+            self.vo_bias_prior_scale,
+            self.vo_bias_prior_yaw_drift_rad_per_m,
+            self.vo_bias_prior_yaw_scale,
             self.wrong_translation_m,
             self.wrong_rotation_deg,
         ];

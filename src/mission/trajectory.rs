@@ -2,6 +2,7 @@
 //! visual odometry between consecutive frames, anchored at the first frame; relocalization
 //! and loop-closure factors are added by the stages that find them.
 
+use super::odometry_bias::{estimate_bias, BiasPrior, OdometryBias, OdometryStep, StepWeight};
 use crate::graph::{GraphError, PoseGraph, RobustKernel, SolverConfig};
 use crate::sim::session::SessionLog;
 use nalgebra::{Isometry3, Matrix6, Point3};
@@ -34,8 +35,31 @@ pub fn odometry_information(
     info
 }
 
+/// A factor other than odometry, kept so that the graph can be rebuilt with re-corrected
+/// odometry.
+#[derive(Clone, Debug)]
+enum ExtraFactor {
+    /// Relocalization of frame `k` against the prior map.
+    Relocalization {
+        k: usize,
+        prior_from_rover: Isometry3<f64>,
+        information: Matrix6<f64>,
+        kernel: RobustKernel,
+    },
+    /// Loop closure `j_from_k` between two frames.
+    Between {
+        j: usize,
+        k: usize,
+        j_from_k: Isometry3<f64>,
+        information: Matrix6<f64>,
+        kernel: RobustKernel,
+    },
+}
+
 /// The growing pose graph of one session; the graph's world is the session's odometry
-/// frame (`odom`), pose ids are frame indices into [`SessionLog::frames`].
+/// frame (`odom`), pose ids are frame indices into [`SessionLog::frames`]. The odometry
+/// factors carry the measurements with the current estimate of the odometry's biases taken
+/// out ([`TrajectoryGraph::calibrate`]).
 pub struct TrajectoryGraph {
     /// The graph (poses `odom_from_rover`, frame [`PRIOR_FRAME`] = `odom_from_prior`).
     pub graph: PoseGraph,
@@ -43,6 +67,12 @@ pub struct TrajectoryGraph {
     pub frames: usize,
     /// Whether the prior map's frame variable exists.
     pub has_prior_frame: bool,
+    /// The current estimate of the odometry's biases.
+    pub bias: OdometryBias,
+    /// Raw odometry of every step (`steps[k - 1]`: frame k − 1 to frame k).
+    steps: Vec<OdometryStep>,
+    /// Relocalizations and loop closures, in the order added.
+    extra: Vec<ExtraFactor>,
 }
 
 impl TrajectoryGraph {
@@ -52,6 +82,9 @@ impl TrajectoryGraph {
             graph: PoseGraph::new(),
             frames: 0,
             has_prior_frame: false,
+            bias: OdometryBias::default(),
+            steps: Vec::new(),
+            extra: Vec::new(),
         }
     }
 
@@ -68,32 +101,22 @@ impl TrajectoryGraph {
             let Some(t) = log.ticks.get(tick) else {
                 break;
             };
-            let initial = if k == 0 {
-                t.session_from_rover
+            if k == 0 {
+                self.graph.add_pose(0, t.session_from_rover)?;
+                self.graph.fix(0)?;
             } else {
+                let step = odometry_step(log, log.frames[k - 1].tick, tick);
+                let z = self.bias.correct(&step);
                 // chain on the optimised previous pose
-                let prev_tick = log.frames[k - 1].tick;
                 let prev = self
                     .graph
                     .pose(k as u64 - 1)
-                    .unwrap_or(log.ticks[prev_tick].session_from_rover);
-                prev * log
-                    .odometry_between(prev_tick, tick)
-                    .unwrap_or_else(Isometry3::identity)
-            };
-            self.graph.add_pose(k as u64, initial)?;
-            if k == 0 {
-                self.graph.fix(0)?;
-            } else {
-                let prev_tick = log.frames[k - 1].tick;
-                let z = log
-                    .odometry_between(prev_tick, tick)
                     .unwrap_or_else(Isometry3::identity);
-                let distance = path_length(log, prev_tick, tick);
-                let turned = angle_turned(log, prev_tick, tick);
-                let info = odometry_information(distance, turned, config);
+                self.graph.add_pose(k as u64, prev * z)?;
+                let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
                 self.graph
                     .add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
+                self.steps.push(step);
             }
             self.frames += 1;
         }
@@ -101,13 +124,14 @@ impl TrajectoryGraph {
     }
 
     /// Add a relocalization of frame `k` against the prior map: `prior_from_rover`
-    /// measured, with its information (the prior frame variable is created on first use,
-    /// initialised from this measurement); returns the factor index.
+    /// measured, with its information and robust kernel (the prior frame variable is
+    /// created on first use, initialised from this measurement); returns the factor index.
     pub fn add_relocalization(
         &mut self,
         k: usize,
         prior_from_rover: Isometry3<f64>,
         information: Matrix6<f64>,
+        kernel: RobustKernel,
     ) -> Result<usize, GraphError> {
         if !self.has_prior_frame {
             let odom_from_rover = self
@@ -118,8 +142,45 @@ impl TrajectoryGraph {
                 .add_frame(PRIOR_FRAME, odom_from_rover * prior_from_rover.inverse())?;
             self.has_prior_frame = true;
         }
-        self.graph
-            .add_relocalization(k as u64, PRIOR_FRAME, prior_from_rover, information)
+        let index =
+            self.graph
+                .add_relocalization(k as u64, PRIOR_FRAME, prior_from_rover, information)?;
+        self.graph.set_factor_kernel(index, kernel)?;
+        self.extra.push(ExtraFactor::Relocalization {
+            k,
+            prior_from_rover,
+            information,
+            kernel,
+        });
+        Ok(index)
+    }
+
+    /// Add a loop closure: frame `k` measured from frame `j` (`j_from_k`); returns the
+    /// factor index.
+    pub fn add_loop_closure(
+        &mut self,
+        j: usize,
+        k: usize,
+        j_from_k: Isometry3<f64>,
+        information: Matrix6<f64>,
+        kernel: RobustKernel,
+    ) -> Result<usize, GraphError> {
+        let index = self
+            .graph
+            .add_between(j as u64, k as u64, j_from_k, information, kernel)?;
+        self.extra.push(ExtraFactor::Between {
+            j,
+            k,
+            j_from_k,
+            information,
+            kernel,
+        });
+        Ok(index)
+    }
+
+    /// Relocalizations and loop closures added so far.
+    pub fn num_fixes(&self) -> usize {
+        self.extra.len()
     }
 
     /// Optimise.
@@ -130,6 +191,131 @@ impl TrajectoryGraph {
         };
         self.graph.optimize(&config)?;
         Ok(())
+    }
+
+    /// Estimate the odometry's biases from the optimised trajectory, rebuild the graph with
+    /// the odometry corrected by them and re-optimise; `rounds` times (the estimate and the
+    /// trajectory are solved in turn). Call after [`TrajectoryGraph::optimize`].
+    pub fn calibrate(
+        &mut self,
+        config: &super::MissionConfig,
+        rounds: usize,
+    ) -> Result<(), GraphError> {
+        let prior = BiasPrior {
+            scale_error: config.vo_bias_prior_scale,
+            yaw_drift_rad_per_m: config.vo_bias_prior_yaw_drift_rad_per_m,
+            yaw_scale_error: config.vo_bias_prior_yaw_scale,
+        };
+        let weights: Vec<StepWeight> = self
+            .steps
+            .iter()
+            .map(|s| {
+                let info = odometry_information(s.distance_m, s.turned_abs_rad, config);
+                StepWeight {
+                    yaw: info[(2, 2)],
+                    translation: info[(3, 3)],
+                }
+            })
+            .collect();
+        for _ in 0..rounds {
+            // the poses were optimised with the current correction: the estimate is of the
+            // total bias seen from the raw measurements
+            let poses: Vec<Isometry3<f64>> = (0..self.frames)
+                .map(|k| {
+                    self.graph
+                        .pose(k as u64)
+                        .unwrap_or_else(Isometry3::identity)
+                })
+                .collect();
+            self.bias = estimate_bias(&self.steps, &poses, &weights, &prior);
+            self.rebuild(config)?;
+            self.optimize()?;
+        }
+        Ok(())
+    }
+
+    /// A new graph with the same variables (current estimates), the odometry corrected with
+    /// the current bias, and the same relocalizations and loop closures.
+    fn rebuild(&mut self, config: &super::MissionConfig) -> Result<(), GraphError> {
+        let mut graph = PoseGraph::new();
+        for k in 0..self.frames {
+            let pose = self
+                .graph
+                .pose(k as u64)
+                .unwrap_or_else(Isometry3::identity);
+            graph.add_pose(k as u64, pose)?;
+        }
+        graph.fix(0)?;
+        if let Some(frame) = self.odom_from_prior() {
+            graph.add_frame(PRIOR_FRAME, frame)?;
+        }
+        for (i, step) in self.steps.iter().enumerate() {
+            let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
+            let z = self.bias.correct(step);
+            graph.add_between(i as u64, i as u64 + 1, z, info, RobustKernel::None)?;
+        }
+        for f in &self.extra {
+            match f {
+                ExtraFactor::Relocalization {
+                    k,
+                    prior_from_rover,
+                    information,
+                    kernel,
+                } => {
+                    let index = graph.add_relocalization(
+                        *k as u64,
+                        PRIOR_FRAME,
+                        *prior_from_rover,
+                        *information,
+                    )?;
+                    graph.set_factor_kernel(index, *kernel)?;
+                }
+                ExtraFactor::Between {
+                    j,
+                    k,
+                    j_from_k,
+                    information,
+                    kernel,
+                } => {
+                    graph.add_between(*j as u64, *k as u64, *j_from_k, *information, *kernel)?;
+                }
+            }
+        }
+        self.graph = graph;
+        Ok(())
+    }
+
+    /// The odometry chain of `frames` with the current bias correction, starting at the
+    /// identity (relative shape only: what a submap is built from). Index `i` of the result
+    /// is frame `frames.start + i`.
+    pub fn corrected_odometry(&self, frames: std::ops::Range<usize>) -> Vec<Isometry3<f64>> {
+        let mut pose = Isometry3::identity();
+        let mut out = Vec::with_capacity(frames.len());
+        for k in frames {
+            if !out.is_empty() {
+                if let Some(step) = k.checked_sub(1).and_then(|i| self.steps.get(i)) {
+                    pose *= self.bias.correct(step);
+                }
+            }
+            out.push(pose);
+        }
+        out
+    }
+
+    /// One-σ uncertainty the odometry accumulates between frames `a` and `b` (either
+    /// order), from the odometry factors' noise model: (horizontal position m, yaw rad). The
+    /// position includes the lever of the yaw uncertainty over the distance driven.
+    pub fn odometry_sigma(&self, a: usize, b: usize, config: &super::MissionConfig) -> (f64, f64) {
+        let (from, to) = (a.min(b), a.max(b));
+        let (mut var_t, mut var_yaw, mut path) = (0.0, 0.0, 0.0);
+        for step in self.steps.iter().take(to).skip(from) {
+            let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
+            var_t += 1.0 / info[(3, 3)];
+            var_yaw += 1.0 / info[(2, 2)];
+            path += step.distance_m;
+        }
+        let sigma_yaw = var_yaw.sqrt();
+        (var_t.sqrt() + sigma_yaw * path, sigma_yaw)
     }
 
     /// `odom_from_prior` if known.
@@ -163,20 +349,24 @@ impl Default for TrajectoryGraph {
     }
 }
 
-/// True horizontal-and-vertical path length between two ticks, from the odometry estimate.
-fn path_length(log: &SessionLog, a: usize, b: usize) -> f64 {
-    (a..b)
-        .filter_map(|k| log.ticks.get(k + 1))
-        .map(|t| t.vo_prev_from_cur.translation.vector.norm())
-        .sum()
-}
-
-/// Absolute yaw turned between two ticks, from the odometry estimate, radians.
-fn angle_turned(log: &SessionLog, a: usize, b: usize) -> f64 {
-    (a..b)
-        .filter_map(|k| log.ticks.get(k + 1))
-        .map(|t| t.vo_prev_from_cur.rotation.euler_angles().2.abs())
-        .sum()
+/// The measured odometry between two ticks, with the distance and yaw turned (per-tick
+/// sums of the measured increments).
+pub fn odometry_step(log: &SessionLog, a: usize, b: usize) -> OdometryStep {
+    let mut step = OdometryStep {
+        measured: log
+            .odometry_between(a, b)
+            .unwrap_or_else(Isometry3::identity),
+        distance_m: 0.0,
+        turned_rad: 0.0,
+        turned_abs_rad: 0.0,
+    };
+    for t in (a..b).filter_map(|k| log.ticks.get(k + 1)) {
+        let yaw = t.vo_prev_from_cur.rotation.euler_angles().2;
+        step.distance_m += t.vo_prev_from_cur.translation.vector.norm();
+        step.turned_rad += yaw;
+        step.turned_abs_rad += yaw.abs();
+    }
+    step
 }
 
 /// The boulder detections of frames `frames` placed with `poses` (one per frame of the
@@ -325,7 +515,9 @@ mod tests {
         let k = graph.frames - 1;
         let truth = log.ticks[log.frames[k].tick].world_from_rover;
         let info = Matrix6::identity() * 1e6;
-        graph.add_relocalization(k, truth, info).unwrap();
+        graph
+            .add_relocalization(k, truth, info, RobustKernel::None)
+            .unwrap();
         graph.optimize().unwrap();
         let poses = graph.poses_in_prior();
         assert!((poses[k].translation.vector - truth.translation.vector).norm() < 0.01);

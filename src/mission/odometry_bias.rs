@@ -1,0 +1,227 @@
+//! Self-calibration of the visual odometry's systematic errors from the pose graph.
+//!
+//! Most of the odometry's drift is not random: a per-session scale error (distances come
+//! back a percent or so long or short), a yaw drift per metre driven and a yaw-rate scale
+//! error (every turn comes back a fraction of a percent too large or too small). Left in the
+//! odometry factors these biases bend every submap the same way and pull every stretch
+//! between two fixes the same way, which a graph of independent per-step noise cannot
+//! explain. Once relocalizations or loop closures tie the trajectory down, the optimised
+//! relative motions reveal the biases: this module estimates them by weighted least
+//! squares over every odometry step (with a Gaussian prior on each bias, so a session
+//! without fixes keeps them at zero), and corrects the measurements with them.
+
+use nalgebra::{Isometry3, Matrix2, UnitQuaternion, Vector2, Vector3};
+use serde::Serialize;
+
+/// The odometry measured between two consecutive frames, with what its biases scale with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdometryStep {
+    /// Measured `prev_from_cur`.
+    pub measured: Isometry3<f64>,
+    /// Distance driven (sum of the measured per-tick translations), metres.
+    pub distance_m: f64,
+    /// Signed yaw turned (sum of the measured per-tick yaw increments), radians.
+    pub turned_rad: f64,
+    /// Absolute yaw turned (sum of the absolute per-tick yaw increments), radians.
+    pub turned_abs_rad: f64,
+}
+
+/// The systematic errors of the odometry: measured distance = true × (1 + `scale_error`);
+/// measured yaw increment = true + `yaw_drift_rad_per_m` × distance + `yaw_scale_error` ×
+/// turned.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct OdometryBias {
+    /// Fractional scale error of the measured distances.
+    pub scale_error: f64,
+    /// Yaw error per metre driven, radians per metre.
+    pub yaw_drift_rad_per_m: f64,
+    /// Fractional error of the measured yaw increments.
+    pub yaw_scale_error: f64,
+}
+
+/// One-σ prior of each bias (the sensor's specification); zero-mean.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BiasPrior {
+    /// Scale error, fraction.
+    pub scale_error: f64,
+    /// Yaw drift, radians per metre.
+    pub yaw_drift_rad_per_m: f64,
+    /// Yaw-rate scale error, fraction.
+    pub yaw_scale_error: f64,
+}
+
+impl OdometryBias {
+    /// The step with the biases taken out.
+    pub fn correct(&self, step: &OdometryStep) -> Isometry3<f64> {
+        let yaw_error =
+            self.yaw_drift_rad_per_m * step.distance_m + self.yaw_scale_error * step.turned_rad;
+        let rotation = step.measured.rotation
+            * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -yaw_error);
+        let translation = step.measured.translation.vector / (1.0 + self.scale_error);
+        Isometry3::from_parts(translation.into(), rotation)
+    }
+}
+
+/// Weights of one step in the estimate: inverse variances of its yaw and of each
+/// translation axis (the odometry factor's information).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepWeight {
+    /// 1/σ² of the yaw, 1/rad².
+    pub yaw: f64,
+    /// 1/σ² of each translation axis, 1/m².
+    pub translation: f64,
+}
+
+/// The maximum-a-posteriori biases given the estimated poses: `steps[i]` is the odometry
+/// from `poses[i]` to `poses[i + 1]` (`x_from_rover`), weighted by `weights[i]`; the
+/// residual of each step is the difference between the estimated relative motion and the
+/// corrected measurement, linear in the biases for small errors. Extra entries of the
+/// longer slices are ignored.
+pub fn estimate_bias(
+    steps: &[OdometryStep],
+    poses: &[Isometry3<f64>],
+    weights: &[StepWeight],
+    prior: &BiasPrior,
+) -> OdometryBias {
+    let prior_weight = |sigma: f64| {
+        if sigma > 0.0 && sigma.is_finite() {
+            1.0 / (sigma * sigma)
+        } else {
+            1e12
+        }
+    };
+    // yaw: −e = b_d·d + b_s·θ, with e the estimated minus the measured yaw increment
+    let mut normal = Matrix2::new(
+        prior_weight(prior.yaw_drift_rad_per_m),
+        0.0,
+        0.0,
+        prior_weight(prior.yaw_scale_error),
+    );
+    let mut rhs = Vector2::zeros();
+    // translation: estimated ≈ u · measured, u = 1 / (1 + scale error), prior u ~ N(1, σ²)
+    let u_prior = prior_weight(prior.scale_error);
+    let (mut num, mut den) = (u_prior, u_prior);
+    for ((step, pair), w) in steps.iter().zip(poses.windows(2)).zip(weights) {
+        let estimated = pair[0].inverse() * pair[1];
+        let e = (step.measured.rotation.inverse() * estimated.rotation)
+            .euler_angles()
+            .2;
+        let a = Vector2::new(step.distance_m, step.turned_rad);
+        normal += w.yaw * a * a.transpose();
+        rhs -= w.yaw * e * a;
+        let z = step.measured.translation.vector;
+        num += w.translation * estimated.translation.vector.dot(&z);
+        den += w.translation * z.norm_squared();
+    }
+    let yaw = normal
+        .try_inverse()
+        .map_or_else(Vector2::zeros, |n| n * rhs);
+    let u = num / den;
+    let scale_error = if u > 0.5 && u < 2.0 {
+        1.0 / u - 1.0
+    } else {
+        0.0
+    };
+    OdometryBias {
+        scale_error,
+        yaw_drift_rad_per_m: yaw[0],
+        yaw_scale_error: yaw[1],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Steps of a drive that goes straight, turns on the spot and drives on, measured with
+    /// known biases.
+    fn drive(bias: &OdometryBias) -> (Vec<OdometryStep>, Vec<Isometry3<f64>>) {
+        let mut truth = vec![Isometry3::identity()];
+        let mut steps = Vec::new();
+        for k in 0..60 {
+            let (forward, turn) = match k % 20 {
+                0..=9 => (0.3, 0.02),
+                10..=14 => (0.0, 0.5),
+                _ => (0.25, -0.1),
+            };
+            let motion = Isometry3::from_parts(
+                Vector3::new(forward, 0.0, 0.0).into(),
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn),
+            );
+            let yaw_error = bias.yaw_drift_rad_per_m * forward + bias.yaw_scale_error * turn;
+            let measured = Isometry3::from_parts(
+                (motion.translation.vector * (1.0 + bias.scale_error)).into(),
+                motion.rotation * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw_error),
+            );
+            steps.push(OdometryStep {
+                measured,
+                distance_m: measured.translation.vector.norm(),
+                turned_rad: measured.rotation.euler_angles().2,
+                turned_abs_rad: measured.rotation.euler_angles().2.abs(),
+            });
+            let last = *truth.last().unwrap();
+            truth.push(last * motion);
+        }
+        (steps, truth)
+    }
+
+    #[test]
+    fn recovers_the_biases_from_the_true_trajectory() {
+        let bias = OdometryBias {
+            scale_error: 0.012,
+            yaw_drift_rad_per_m: 0.0007,
+            yaw_scale_error: -0.004,
+        };
+        let (steps, truth) = drive(&bias);
+        let weights = vec![
+            StepWeight {
+                yaw: 1e10,
+                translation: 1e9,
+            };
+            steps.len()
+        ];
+        let prior = BiasPrior {
+            scale_error: 0.01,
+            yaw_drift_rad_per_m: 0.0005,
+            yaw_scale_error: 0.003,
+        };
+        let got = estimate_bias(&steps, &truth, &weights, &prior);
+        assert!((got.scale_error - bias.scale_error).abs() < 1e-4, "{got:?}");
+        assert!((got.yaw_drift_rad_per_m - bias.yaw_drift_rad_per_m).abs() < 2e-5);
+        assert!((got.yaw_scale_error - bias.yaw_scale_error).abs() < 1e-4);
+        // corrected steps compose to the truth
+        let mut pose = Isometry3::identity();
+        for s in &steps {
+            pose *= got.correct(s);
+        }
+        let end = truth.last().unwrap();
+        assert!((pose.translation.vector - end.translation.vector).norm() < 0.01);
+    }
+
+    #[test]
+    fn without_evidence_the_prior_keeps_the_biases_at_zero() {
+        let (steps, _) = drive(&OdometryBias::default());
+        // poses exactly as measured: nothing to explain
+        let mut poses = vec![Isometry3::identity()];
+        for s in &steps {
+            let last = *poses.last().unwrap();
+            poses.push(last * s.measured);
+        }
+        let weights = vec![
+            StepWeight {
+                yaw: 1e4,
+                translation: 1e4,
+            };
+            steps.len()
+        ];
+        let prior = BiasPrior {
+            scale_error: 0.01,
+            yaw_drift_rad_per_m: 0.0005,
+            yaw_scale_error: 0.003,
+        };
+        let got = estimate_bias(&steps, &poses, &weights, &prior);
+        assert!(got.scale_error.abs() < 1e-9);
+        assert!(got.yaw_drift_rad_per_m.abs() < 1e-9);
+        assert!(got.yaw_scale_error.abs() < 1e-9);
+    }
+}
