@@ -35,6 +35,9 @@ pub enum RecordingError {
     },
 }
 
+/// Which pose of a frame a trajectory line follows.
+type PoseOf = fn(&TraceFrame) -> Isometry3<f64>;
+
 const TIMELINE: &str = "mission_time";
 /// Frames between two re-logs of the growing trajectory lines.
 const TRAJECTORY_EVERY_FRAMES: usize = 5;
@@ -197,7 +200,7 @@ fn log_session(
             }]),
         )?;
     }
-    let lines: [(&str, [u8; 3], fn(&TraceFrame) -> Isometry3<f64>); 3] = [
+    let lines: [(&str, [u8; 3], PoseOf); 3] = [
         ("trajectory_true", [60, 60, 60], |f| f.world_from_rover_true),
         ("trajectory_estimate", [30, 120, 255], |f| {
             f.world_from_rover_estimate
