@@ -303,7 +303,7 @@ fn component_peaks(
     let mut stack = Vec::new();
     let mut component = Vec::new();
     for start in 0..w * h {
-        if seen[start] || !(hag[start] > grow_threshold(start)) {
+        if seen[start] || hag[start].is_nan() || hag[start] <= grow_threshold(start) {
             continue;
         }
         seen[start] = true;
