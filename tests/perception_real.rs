@@ -31,7 +31,7 @@ fn front_end_runs_on_all_real_pairs() {
         }
         for b in &result.boulders {
             assert!(
-                b.depth_m > 0.5 && b.depth_m < 15.0,
+                b.depth_m > 0.5 && b.depth_m < 10.0,
                 "{name}: depth {}",
                 b.depth_m
             );
@@ -107,4 +107,54 @@ fn detect_cli_rejects_bad_input_with_exit_code_2() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["time_ms"].as_f64().unwrap() > 0.0);
     assert!(v["boulders"].is_array());
+}
+
+/// Rocks the geometric segmenter finds on the real pairs (read off the overlays): each
+/// must come out as a boulder whose centroid lies within 20 px of the listed pixel, at a
+/// depth within 15 % of the listed one.
+#[test]
+fn geometric_segmenter_finds_the_known_real_rocks() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    // (pair, [(u, v, depth_m)])
+    type Rock = (f64, f64, f64);
+    let rocks: [(&str, &[Rock]); 8] = [
+        ("1_155", &[(455.0, 379.0, 3.3), (693.0, 294.0, 5.6)]),
+        ("1_179", &[(507.0, 470.0, 2.9), (779.0, 384.0, 5.1)]),
+        ("1_185", &[(496.0, 493.0, 2.8), (776.0, 411.0, 5.0)]),
+        ("1_191", &[(496.0, 487.0, 2.7), (778.0, 384.0, 5.0)]),
+        (
+            "1_247",
+            &[
+                (346.0, 445.0, 1.8),
+                (762.0, 310.0, 4.1),
+                (355.0, 321.0, 4.9),
+            ],
+        ),
+        ("1_283", &[(784.0, 264.0, 3.4), (159.0, 414.0, 1.2)]),
+        ("2_1357", &[(1074.0, 676.0, 1.3), (508.0, 574.0, 4.2)]),
+        ("2_915", &[(915.0, 473.0, 1.9)]),
+    ];
+    let dir = data.join("lac-images");
+    let config = FrontEndConfig::default();
+    let segmenter = GeometricSegmenter::new(config.geometric.clone());
+    let mut fe = FrontEnd::new(config, Box::new(segmenter)).unwrap();
+    let mut missing = Vec::new();
+    for (name, expected) in rocks {
+        let left = read_gray_png(&dir.join(format!("{name}_0.png"))).unwrap();
+        let right = read_gray_png(&dir.join(format!("{name}_1.png"))).unwrap();
+        let result = fe.process(&left, &right).unwrap();
+        for &(u, v, depth) in expected {
+            let found = result.boulders.iter().any(|b| {
+                (b.pixel_centroid[0] - u).abs() <= 20.0
+                    && (b.pixel_centroid[1] - v).abs() <= 20.0
+                    && (b.depth_m - depth).abs() <= 0.15 * depth
+            });
+            if !found {
+                missing.push(format!("{name} ({u}, {v}) at {depth} m"));
+            }
+        }
+    }
+    assert!(missing.is_empty(), "rocks not found: {missing:?}");
 }

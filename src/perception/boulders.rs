@@ -48,7 +48,7 @@ impl Default for BoulderConfig {
             max_elongation: 8.0,
             spread_to_size: 4.0,
             min_valid_depth_fraction: 0.2,
-            max_range_m: 15.0,
+            max_range_m: 10.0,
             refine_depth: true,
         }
     }

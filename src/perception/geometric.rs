@@ -40,8 +40,23 @@ pub struct GeometricConfig {
     pub max_base_height_m: f64,
     /// Gray level below which a pixel is in hard shadow.
     pub shadow_level: u8,
-    /// Regions with more than this fraction of their pixels in hard shadow are dropped.
+    /// Regions with more than this fraction of their pixels in hard shadow are dropped,
+    /// unless they also show a sunlit face (see `min_sunlit_fraction`).
     pub max_shadow_fraction: f64,
+    /// Gray level above which a pixel is sunlit.
+    pub sunlit_level: u8,
+    /// A region with at least this fraction of sunlit pixels has a lit face: a rock whose
+    /// front is in its own shadow, not stereo noise inside a shadow.
+    pub min_sunlit_fraction: f64,
+    /// Once a region is found it extends down its vertical face to the ground: into
+    /// neighbours below or beside it (within its columns) that are above the ground at all
+    /// and within this many disparity pixels of their neighbour in the region. The ground
+    /// in front of a rock changes disparity by about baseline / camera height (0.65 px) per
+    /// row, a rock's face by none, so the extension stops at the rock's foot.
+    pub face_disparity_px: f32,
+    /// Regions touching (same disparity, adjacent pixels) something higher than
+    /// `max_height_m` are parts of a structure (the lander's feet and boxes): dropped.
+    pub reject_touching_structures: bool,
 }
 
 impl Default for GeometricConfig {
@@ -58,6 +73,10 @@ impl Default for GeometricConfig {
             max_base_height_m: 0.2,
             shadow_level: 25,
             max_shadow_fraction: 0.5,
+            sunlit_level: 110,
+            min_sunlit_fraction: 0.02,
+            face_disparity_px: 0.4,
+            reject_touching_structures: true,
         }
     }
 }
@@ -117,6 +136,18 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         (base + config.height_per_range * z) as f32
     };
     let hag = &heights.above_ground_m;
+    let structure_peak = if config.reject_touching_structures {
+        component_peaks(
+            hag,
+            &disparity.data,
+            w,
+            h,
+            |i| threshold(config.grow_height_m, i),
+            config,
+        )
+    } else {
+        vec![f32::MIN; w * h]
+    };
     let mut label = vec![u32::MAX; w * h];
     let mut masks = Vec::new();
     let mut stack = Vec::new();
@@ -137,6 +168,16 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         region.clear();
         label[seed] = id;
         stack.push(seed);
+        let touches_structure = structure_peak[seed] > config.max_height_m as f32
+            || (config.reject_touching_structures
+                && near_structure(
+                    seed,
+                    hag,
+                    &disparity.data,
+                    (w, h),
+                    &disparity.camera,
+                    config,
+                ));
         while let Some(p) = stack.pop() {
             region.push(p);
             let (px, py) = ((p % w) as isize, (p / w) as isize);
@@ -160,10 +201,27 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
                 }
             }
         }
-        if region.len() < config.min_region_px {
+        if region.len() < config.min_region_px
+            || (touches_structure && config.reject_touching_structures)
+        {
             masks.push(None);
             continue;
         }
+        let z_seed = heights.depth_m[seed] as f64;
+        let foot_rows = (threshold(config.grow_height_m, seed) as f64 * disparity.camera.fy
+            / z_seed.max(0.1))
+        .ceil() as usize
+            + 1;
+        extend_down_face(
+            &mut region,
+            &mut label,
+            id,
+            hag,
+            &disparity.data,
+            (w, h),
+            foot_rows,
+            config,
+        );
         let peak = region.iter().map(|&p| hag[p]).fold(f32::MIN, f32::max) as f64;
         let base = region.iter().map(|&p| hag[p]).fold(f32::MAX, f32::min) as f64;
         let shadow = region
@@ -171,9 +229,14 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
             .filter(|&&p| intensity[p] < config.shadow_level)
             .count() as f64
             / region.len() as f64;
+        let lit = region
+            .iter()
+            .filter(|&&p| intensity[p] > config.sunlit_level)
+            .count() as f64
+            / region.len() as f64;
         if peak > config.max_height_m
             || base > config.max_base_height_m
-            || shadow > config.max_shadow_fraction
+            || (shadow > config.max_shadow_fraction && lit < config.min_sunlit_fraction)
         {
             masks.push(None);
             continue;
@@ -190,10 +253,133 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         let z = heights.depth_m[seed] as f64;
         let prominence = peak / (config.seed_height_m + config.height_per_range * z);
         let score = ((0.4 + 0.15 * prominence.min(4.0) + 0.3 * (sunlit * 4.0).min(1.0))
-            * (1.0 - shadow))
-            .clamp(0.0, 1.0);
+            * (1.0 - shadow).max(lit))
+        .clamp(0.0, 1.0);
         let pixels: Vec<(usize, usize)> = region.iter().map(|&p| (p % w, p / w)).collect();
         masks.push(Mask::from_pixels(&pixels, score as f32).map(|m| m.upscaled(scale)));
     }
     masks.into_iter().flatten().collect()
+}
+
+/// Whether something higher than `max_height_m` stands within half a metre (in the image,
+/// at a similar disparity) of the seed: the feet, boxes and struts of the lander.
+fn near_structure(
+    seed: usize,
+    hag: &[f32],
+    disparity: &[f32],
+    (w, h): (usize, usize),
+    camera: &super::StereoCamera,
+    config: &GeometricConfig,
+) -> bool {
+    let d0 = disparity[seed];
+    let Some(z) = camera.depth_from_disparity(d0 as f64) else {
+        return false;
+    };
+    let r = (0.5 * camera.fy / z).ceil() as usize;
+    let (sx, sy) = (seed % w, seed / w);
+    let tol = 0.15 * d0;
+    (sy.saturating_sub(r)..(sy + r + 1).min(h)).any(|y| {
+        (sx.saturating_sub(r)..(sx + r + 1).min(w)).any(|x| {
+            let q = y * w + x;
+            hag[q] > config.max_height_m as f32 && (disparity[q] - d0).abs() <= tol
+        })
+    })
+}
+
+/// For each pixel above its grow threshold, the highest height above ground in its
+/// connected component (neighbours at a similar disparity, no extent limit); `f32::MIN`
+/// elsewhere. A boulder candidate whose component reaches higher than a boulder can be is
+/// part of a structure (a box at the lander's foot).
+fn component_peaks(
+    hag: &[f32],
+    disparity: &[f32],
+    w: usize,
+    h: usize,
+    grow_threshold: impl Fn(usize) -> f32,
+    config: &GeometricConfig,
+) -> Vec<f32> {
+    let mut peak = vec![f32::MIN; w * h];
+    let mut seen = vec![false; w * h];
+    let mut stack = Vec::new();
+    let mut component = Vec::new();
+    for start in 0..w * h {
+        if seen[start] || hag[start].is_nan() || hag[start] <= grow_threshold(start) {
+            continue;
+        }
+        seen[start] = true;
+        stack.push(start);
+        component.clear();
+        let mut top = f32::MIN;
+        while let Some(p) = stack.pop() {
+            component.push(p);
+            top = top.max(hag[p]);
+            let (px, py) = ((p % w) as isize, (p / w) as isize);
+            let dp = disparity[p];
+            let tol = (config.connect_disparity_frac as f32 * dp).max(0.75);
+            for dy in -1..=1isize {
+                for dx in -1..=1isize {
+                    let (qx, qy) = (px + dx, py + dy);
+                    if qx < 0 || qy < 0 || qx >= w as isize || qy >= h as isize {
+                        continue;
+                    }
+                    let q = qy as usize * w + qx as usize;
+                    if !seen[q] && hag[q] > grow_threshold(q) && (disparity[q] - dp).abs() <= tol {
+                        seen[q] = true;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        for &p in &component {
+            peak[p] = top;
+        }
+    }
+    peak
+}
+
+/// Extend a region down its vertical face (see [`GeometricConfig::face_disparity_px`]):
+/// breadth-first from its pixels into unlabelled neighbours below or beside them, within the
+/// region's columns, that are above the ground and at nearly the same disparity.
+fn extend_down_face(
+    region: &mut Vec<usize>,
+    label: &mut [u32],
+    id: u32,
+    hag: &[f32],
+    disparity: &[f32],
+    (w, h): (usize, usize),
+    foot_rows: usize,
+    config: &GeometricConfig,
+) {
+    if config.face_disparity_px <= 0.0 || region.is_empty() {
+        return;
+    }
+    let x_min = region.iter().map(|&p| p % w).min().unwrap_or(0);
+    let x_max = region.iter().map(|&p| p % w).max().unwrap_or(0);
+    // the foot is at most the grow threshold's height (in rows) below the region
+    let y_max = region.iter().map(|&p| p / w).max().unwrap_or(0) + foot_rows;
+    let mut next = 0;
+    while next < region.len() {
+        let p = region[next];
+        next += 1;
+        let (px, py) = (p % w, p / w);
+        let dp = disparity[p];
+        for (dx, dy) in [(-1isize, 0isize), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+            let (qx, qy) = (px as isize + dx, py as isize + dy);
+            if qx < x_min as isize
+                || qx > x_max as isize
+                || qy < 0
+                || qy >= h.min(y_max + 1) as isize
+            {
+                continue;
+            }
+            let q = qy as usize * w + qx as usize;
+            if label[q] == u32::MAX
+                && hag[q] > 0.0
+                && (disparity[q] - dp).abs() <= config.face_disparity_px
+            {
+                label[q] = id;
+                region.push(q);
+            }
+        }
+    }
 }

@@ -41,6 +41,9 @@ pub struct GroundConfig {
     pub obstacle_residual_m: f64,
     /// Points more than this below the ground plane are mismatches and ignored, metres.
     pub max_below_plane_m: f64,
+    /// Cells whose heights spread (10th to 90th percentile) more than this, metres, hold
+    /// a vertical face (a boulder, the lander) and are left out of the local ground fit.
+    pub max_cell_spread_m: f64,
 }
 
 impl Default for GroundConfig {
@@ -56,6 +59,7 @@ impl Default for GroundConfig {
             cell_percentile: 0.3,
             obstacle_residual_m: 0.03,
             max_below_plane_m: 0.6,
+            max_cell_spread_m: 0.12,
         }
     }
 }
@@ -115,17 +119,28 @@ pub fn height_above_ground(disparity: &DisparityMap, config: &GroundConfig) -> O
         }
         point_cell.push((*i, c, height));
     }
+    // each cell's level, and whether it looks like ground: a cell holding a vertical face
+    // (a boulder's front, the lander) spans a wide range of heights
+    let mut ground_like = vec![false; n_cells * n_cells];
     let level: Vec<f32> = cells
         .iter_mut()
-        .map(|v| {
+        .zip(ground_like.iter_mut())
+        .map(|(v, ground)| {
             if v.is_empty() {
                 return f32::NAN;
             }
-            let k = ((v.len() - 1) as f64 * config.cell_percentile).round() as usize;
-            *v.select_nth_unstable_by(k, f32::total_cmp).1
+            let rank = |q: f64| ((v.len() - 1) as f64 * q).round() as usize;
+            let (k, k_lo, k_hi) = (rank(config.cell_percentile), rank(0.1), rank(0.9));
+            let hi = *v.select_nth_unstable_by(k_hi, f32::total_cmp).1;
+            let lo = *v[..=k_hi].select_nth_unstable_by(k_lo, f32::total_cmp).1;
+            let level = *v[k_lo..=k_hi]
+                .select_nth_unstable_by(k - k_lo, f32::total_cmp)
+                .1;
+            *ground = ((hi - lo) as f64) <= config.max_cell_spread_m;
+            level
         })
         .collect();
-    let local = local_ground(&level, n_cells, config);
+    let local = local_ground(&level, &ground_like, n_cells, config);
     let mut above_ground_m = vec![f32::NAN; w * h];
     for (i, c, height) in point_cell {
         // points far below the plane are mismatches (nothing is seen through the ground)
@@ -142,12 +157,15 @@ pub fn height_above_ground(disparity: &DisparityMap, config: &GroundConfig) -> O
     })
 }
 
-/// The local ground level at each non-empty cell: a plane fitted to the cell levels in the
-/// surrounding window by iteratively reweighted least squares with asymmetric weights
-/// (cells above the plane by more than `obstacle_residual_m` lose weight quadratically, so
-/// boulders do not lift the ground; cells below keep full weight), evaluated at the cell.
-fn local_ground(level: &[f32], n: usize, config: &GroundConfig) -> Vec<f32> {
-    let r = config.window_cells as isize;
+/// The local ground level at each non-empty cell: a plane fitted to the levels of the
+/// ground-like cells in the surrounding window (twice as wide where too few; the global
+/// plane, level 0, where still too few) by iteratively reweighted least squares with Cauchy weights, evaluated
+/// at the cell. Cells off the plane by more than `obstacle_residual_m` (boulders) lose
+/// weight; cells below it lose weight too, at twice that scale. A symmetric robust fit
+/// keeps the plane on the terrain: an asymmetric one (cells below keep full weight) runs
+/// away downhill past crests and occlusion gaps, putting whole terrain ridges 30 cm
+/// "above ground" (seen on the real pair 1_155).
+fn local_ground(level: &[f32], ground_like: &[bool], n: usize, config: &GroundConfig) -> Vec<f32> {
     let t = config.obstacle_residual_m.max(1e-3);
     let mut out = vec![f32::NAN; n * n];
     let mut cells: Vec<(f64, f64, f64)> = Vec::new();
@@ -156,36 +174,49 @@ fn local_ground(level: &[f32], n: usize, config: &GroundConfig) -> Vec<f32> {
             if level[cb as usize * n + ca as usize].is_nan() {
                 continue;
             }
-            cells.clear();
-            for db in -r..=r {
-                for da in -r..=r {
-                    let (a, b) = (ca + da, cb + db);
-                    if a >= 0 && b >= 0 && (a as usize) < n && (b as usize) < n {
-                        let v = level[b as usize * n + a as usize];
-                        if v.is_finite() {
-                            cells.push((da as f64, db as f64, v as f64));
+            for r in [
+                config.window_cells as isize,
+                2 * config.window_cells as isize,
+            ] {
+                cells.clear();
+                for db in -r..=r {
+                    for da in -r..=r {
+                        let (a, b) = (ca + da, cb + db);
+                        if a >= 0 && b >= 0 && (a as usize) < n && (b as usize) < n {
+                            let c = b as usize * n + a as usize;
+                            if ground_like[c] && level[c].is_finite() {
+                                cells.push((da as f64, db as f64, level[c] as f64));
+                            }
                         }
                     }
                 }
+                if cells.len() >= 6 {
+                    break;
+                }
+            }
+            if cells.len() < 3 {
+                out[cb as usize * n + ca as usize] = 0.0;
+                continue;
             }
             // start from the median level (flat), then fit planes
             let mut z: Vec<f64> = cells.iter().map(|c| c.2).collect();
             let mid = z.len() / 2;
             let mut plane = [*z.select_nth_unstable_by(mid, f64::total_cmp).1, 0.0, 0.0];
             if cells.len() >= 6 {
-                for _ in 0..4 {
+                for _ in 0..5 {
                     let mut ata = nalgebra::Matrix3::<f64>::zeros();
                     let mut atb = Vector3::<f64>::zeros();
                     for &(x, y, v) in &cells {
                         let res = v - (plane[0] + plane[1] * x + plane[2] * y);
-                        let wgt = if res > t { (t / res).powi(2) } else { 1.0 };
+                        let scale = if res > 0.0 { t } else { 2.0 * t };
+                        let wgt = 1.0 / (1.0 + (res / scale).powi(2));
                         let row = Vector3::new(1.0, x, y);
                         ata += wgt * row * row.transpose();
                         atb += wgt * v * row;
                     }
-                    // a little ridge on the slopes keeps sparse windows stable
-                    ata[(1, 1)] += 1e-2;
-                    ata[(2, 2)] += 1e-2;
+                    // a ridge on the slopes keeps sparse or one-sided windows from tilting
+                    ata[(1, 1)] += 1.0;
+                    ata[(2, 2)] += 1.0;
                     match ata.cholesky() {
                         Some(ch) => {
                             let sol = ch.solve(&atb);
