@@ -14,9 +14,10 @@ pub struct MissionArgs {
     /// Seed of the moon and of both sessions.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Simulated seconds per session.
-    #[arg(long, default_value_t = 300.0)]
-    pub seconds: f64,
+    /// Simulated seconds per session (default: the mission configuration's,
+    /// `seconds_per_session`).
+    #[arg(long)]
+    pub seconds: Option<f64>,
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -35,7 +36,10 @@ pub fn run(
     relocalize: &RelocalizeConfig,
     global_config_given: bool,
 ) -> Result<i32> {
-    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 1e5) {
+    if args
+        .seconds
+        .is_some_and(|s| !(s.is_finite() && s > 0.0 && s <= 1e5))
+    {
         bail!("--seconds must be within (0, 1e5]");
     }
     let base = match &args.mission_config {
@@ -47,7 +51,7 @@ pub fn run(
         None => MissionConfig::default(),
     };
     let config = MissionConfig {
-        seconds_per_session: args.seconds,
+        seconds_per_session: args.seconds.unwrap_or(base.seconds_per_session),
         relocalize: if global_config_given {
             relocalize.clone()
         } else {

@@ -118,7 +118,7 @@ pub struct MissionConfig {
 impl Default for MissionConfig {
     fn default() -> Self {
         Self {
-            seconds_per_session: 300.0,
+            seconds_per_session: 600.0,
             moon: MoonConfig::default(),
             session: SessionConfig::default(),
             start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],

@@ -36,10 +36,10 @@ pub struct WaypointConfig {
 impl Default for WaypointConfig {
     fn default() -> Self {
         Self {
-            pattern: Pattern::Spiral,
+            pattern: Pattern::NestedLoops,
             first_loop_half_side_m: 3.5,
-            ring_spacing_m: 2.0,
-            max_half_side_m: 13.5,
+            ring_spacing_m: 4.5,
+            max_half_side_m: 12.5,
             waypoint_spacing_m: 1.5,
             counter_clockwise: true,
         }
@@ -102,7 +102,13 @@ mod tests {
 
     #[test]
     fn spiral_grows_and_stays_in_bounds() {
-        let w = waypoints(&WaypointConfig::default(), Vector2::new(0.0, -5.0));
+        let config = WaypointConfig {
+            pattern: Pattern::Spiral,
+            ring_spacing_m: 2.0,
+            max_half_side_m: 13.5,
+            ..WaypointConfig::default()
+        };
+        let w = waypoints(&config, Vector2::new(0.0, -5.0));
         let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
         assert!((r(&w[0]) - 3.5).abs() < 1e-9);
         assert!((r(w.last().unwrap()) - 13.5).abs() < 0.5);
@@ -115,17 +121,20 @@ mod tests {
 
     #[test]
     fn nested_loops_are_closed_rings() {
-        let config = WaypointConfig {
-            pattern: Pattern::NestedLoops,
-            ..WaypointConfig::default()
-        };
+        // the default: the loop around the lander, then loops 4.5 m apart out to 12.5 m,
+        // whose camera strips (±3.5 m at 5 m depth) overlap and reach the grid's edge
+        let config = WaypointConfig::default();
+        assert_eq!(config.pattern, Pattern::NestedLoops);
         let w = waypoints(&config, Vector2::new(1.0, 0.0));
         let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
         let rings: Vec<f64> = w.iter().map(r).collect();
-        assert!(rings.iter().all(|h| {
-            [3.5, 5.5, 7.5, 9.5, 11.5, 13.5]
-                .iter()
-                .any(|x| (x - h).abs() < 1e-9)
-        }));
+        assert!(rings
+            .iter()
+            .all(|h| [3.5, 8.0, 12.5].iter().any(|x| (x - h).abs() < 1e-9)));
+        for h in [3.5, 8.0, 12.5] {
+            assert!(rings.iter().any(|x| (x - h).abs() < 1e-9), "no ring at {h}");
+        }
+        // within the grid (±13.5 m) with a margin for the rover's clearance
+        assert!(rings.iter().all(|h| *h <= 13.5 - 0.75));
     }
 }
