@@ -120,7 +120,7 @@ impl Default for MissionConfig {
         Self {
             seconds_per_session: 600.0,
             moon: MoonConfig::default(),
-            session: SessionConfig::default(),
+            session: coverage_session(),
             start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
             start_2: [-4.5, 0.0, -std::f64::consts::FRAC_PI_2],
             guess_error_2: [0.8, -0.6, 0.25],
@@ -144,6 +144,16 @@ impl Default for MissionConfig {
             rock_grid: RockGridConfig::default(),
         }
     }
+}
+
+/// The session defaults of a mission: the LAC coverage loops, driven at 0.45 m/s.
+fn coverage_session() -> SessionConfig {
+    let mut session = SessionConfig {
+        waypoints: crate::planning::waypoints::WaypointConfig::lac_coverage(),
+        ..SessionConfig::default()
+    };
+    session.navigator.arcs.speed_mps = 0.45;
+    session
 }
 
 impl MissionConfig {

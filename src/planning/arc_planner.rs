@@ -52,7 +52,7 @@ impl Default for ArcPlannerConfig {
             arcs: 41,
             max_yaw_rate_rps: 0.8,
             horizon_s: 8.0,
-            speed_mps: 0.45,
+            speed_mps: 0.4,
             sample_dt_s: 0.25,
             clearance_m: 0.75,
             body_clearance_m: 0.65,

@@ -36,12 +36,27 @@ pub struct WaypointConfig {
 impl Default for WaypointConfig {
     fn default() -> Self {
         Self {
+            pattern: Pattern::Spiral,
+            first_loop_half_side_m: 3.5,
+            ring_spacing_m: 2.0,
+            max_half_side_m: 13.5,
+            waypoint_spacing_m: 1.5,
+            counter_clockwise: true,
+        }
+    }
+}
+
+impl WaypointConfig {
+    /// The mission's coverage pattern: the loop around the lander (half-side 3.5 m), then
+    /// loops 4.5 m apart out to 12.5 m, whose camera strips (±3.5 m at 5 m depth) overlap
+    /// (loop closures) and reach the LAC grid's edge (±13.5 m).
+    pub fn lac_coverage() -> Self {
+        Self {
             pattern: Pattern::NestedLoops,
             first_loop_half_side_m: 3.5,
             ring_spacing_m: 4.5,
             max_half_side_m: 12.5,
-            waypoint_spacing_m: 1.5,
-            counter_clockwise: true,
+            ..Self::default()
         }
     }
 }
@@ -123,7 +138,7 @@ mod tests {
     fn nested_loops_are_closed_rings() {
         // the default: the loop around the lander, then loops 4.5 m apart out to 12.5 m,
         // whose camera strips (±3.5 m at 5 m depth) overlap and reach the grid's edge
-        let config = WaypointConfig::default();
+        let config = WaypointConfig::lac_coverage();
         assert_eq!(config.pattern, Pattern::NestedLoops);
         let w = waypoints(&config, Vector2::new(1.0, 0.0));
         let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
