@@ -23,6 +23,9 @@ pub struct DemoArgs {
     /// Mission configuration (TOML, as printed by `segloc config print --mission`).
     #[arg(long, value_name = "FILE")]
     pub mission_config: Option<PathBuf>,
+    /// Run the coverage mission (600 s per session on the LAC coverage loops).
+    #[arg(long)]
+    pub coverage: bool,
 }
 
 /// Run the demo; exit code 0, or 2 on bad input.
@@ -39,6 +42,7 @@ pub fn run(args: &DemoArgs, config: &RelocalizeConfig, global_config_given: bool
         args.out.clone(),
         args.json,
         args.mission_config.clone(),
+        args.coverage,
     );
     super::mission::run(&mission, config, global_config_given)
 }

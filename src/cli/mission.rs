@@ -33,6 +33,10 @@ pub struct MissionArgs {
     /// Show a progress bar on stderr.
     #[arg(long)]
     pub progress: bool,
+    /// Start from the coverage mission (`MissionConfig::lac_coverage`: 600 s per session
+    /// on the LAC coverage loops) instead of the defaults, when no `--mission-config`.
+    #[arg(long)]
+    pub coverage: bool,
 }
 
 /// Run the mission; exit code 0, or 2 on bad input.
@@ -76,6 +80,7 @@ fn mission_config(
                 .with_context(|| format!("cannot read {}", path.display()))?;
             toml::from_str(&text).with_context(|| format!("mission config {}", path.display()))?
         }
+        None if args.coverage => MissionConfig::lac_coverage(),
         None => MissionConfig::default(),
     };
     let seconds = args.seconds.unwrap_or(base.seconds_per_session);
@@ -170,7 +175,13 @@ pub fn print_summary(output: &MissionOutput, out: Option<&Path>) {
 
 impl MissionArgs {
     /// The arguments `segloc demo` runs the mission with.
-    pub fn for_demo(seed: u64, out: PathBuf, json: bool, mission_config: Option<PathBuf>) -> Self {
+    pub fn for_demo(
+        seed: u64,
+        out: PathBuf,
+        json: bool,
+        mission_config: Option<PathBuf>,
+        coverage: bool,
+    ) -> Self {
         MissionArgs {
             seed,
             seconds: None,
@@ -178,6 +189,7 @@ impl MissionArgs {
             out: Some(out),
             mission_config,
             progress: true,
+            coverage,
         }
     }
 }

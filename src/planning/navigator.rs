@@ -20,6 +20,12 @@ pub struct NavigatorConfig {
     pub arcs: ArcPlannerConfig,
     /// A waypoint is reached within this distance, metres.
     pub waypoint_reached_m: f64,
+    /// … or passed, when the rover is this close and beyond it along the path, metres.
+    pub waypoint_passed_m: f64,
+    /// Steer for the first waypoint at least this far ahead (pure pursuit), metres.
+    pub lookahead_m: f64,
+    /// … looking at most this many waypoints ahead.
+    pub lookahead_waypoints: usize,
     /// Turn on the spot when the waypoint's bearing is off by more than this, radians.
     pub point_turn_threshold_rad: f64,
     /// Yaw rate of a point turn, rad/s.
@@ -50,6 +56,9 @@ impl Default for NavigatorConfig {
         Self {
             arcs: ArcPlannerConfig::default(),
             waypoint_reached_m: 1.0,
+            waypoint_passed_m: 0.0,
+            lookahead_m: 0.0,
+            lookahead_waypoints: 1,
             point_turn_threshold_rad: 1.6,
             point_turn_rate_rps: 0.7,
             stall_window_s: 8.0,
@@ -161,6 +170,78 @@ impl Navigator {
         self.progress.clear();
     }
 
+    /// Waypoint `k` (wrapping) in the session frame.
+    fn waypoint_session(&self, k: usize) -> Point2<f64> {
+        let n = self.waypoints.len().max(1);
+        self.nav_from_session.inverse() * self.waypoints[k % n]
+    }
+
+    /// Whether a session-frame point lies within an obstacle's clearance or the lander's.
+    fn blocked(&self, p: Point2<f64>, obstacles: &ObstacleMemory) -> bool {
+        let arcs = &self.config.arcs;
+        let mut blocked = false;
+        obstacles.for_each_near(p, arcs.required_m(obstacles.max_radius_m()), |o| {
+            blocked |= (o.p - p).norm() < arcs.required_m(o.radius_m);
+        });
+        let q = self.nav_from_session * p;
+        let h = self.config.lander_half_extent_m + arcs.clearance_m;
+        blocked || (q.x.abs() < h && q.y.abs() < h)
+    }
+
+    /// Move on past waypoints that are reached, passed (the rover is beyond them along the
+    /// path and near), blocked, or took too long.
+    fn update_progress(&mut self, time_s: f64, here: Point2<f64>, obstacles: &ObstacleMemory) {
+        for _ in 0..self.waypoints.len() {
+            let a = self.waypoint_session(self.next);
+            let b = self.waypoint_session(self.next + 1);
+            let dist = (a - here).norm();
+            if dist < self.config.waypoint_reached_m
+                || (dist < self.config.waypoint_passed_m && (here - a).dot(&(b - a)) > 0.0)
+            {
+                self.advance(time_s, true);
+                continue;
+            }
+            if self.blocked(a, obstacles)
+                || time_s - self.waypoint_since_s > self.config.waypoint_timeout_s
+                || self.waypoint_backups >= self.config.backups_per_waypoint
+            {
+                self.advance(time_s, false);
+                continue;
+            }
+            break;
+        }
+    }
+
+    /// The point to steer for (session frame): the first unblocked waypoint from the next one
+    /// on that is at least `lookahead_m` away (pure pursuit along the waypoint path), within
+    /// `lookahead_waypoints`; the next waypoint when none is.
+    fn carrot(&self, here: Point2<f64>, obstacles: &ObstacleMemory) -> Point2<f64> {
+        let first = self.waypoint_session(self.next);
+        let mut goal = first;
+        let n = self.waypoints.len();
+        for k in self.next..self.next + self.config.lookahead_waypoints.min(n) {
+            if k >= n && self.next + 1 < n {
+                break;
+            }
+            let p = self.waypoint_session(k);
+            if self.blocked(p, obstacles) {
+                continue;
+            }
+            goal = p;
+            if (p - here).norm() >= self.config.lookahead_m {
+                break;
+            }
+        }
+        goal
+    }
+
+    /// Progress along the path: waypoints passed (each worth its spacing, taken as 100 m so
+    /// that passing one always counts) minus the distance to the next, metres.
+    fn path_progress(&self, here: Point2<f64>) -> f64 {
+        let passed = (self.reached + self.skipped) as f64;
+        100.0 * passed - (self.waypoint_session(self.next) - here).norm()
+    }
+
     /// The command for this control cycle, from the estimated pose (session frame) and the
     /// remembered obstacles.
     /// Unseen ground counts as blocked when `seen` is given.
@@ -187,36 +268,11 @@ impl Navigator {
             seen: seen.filter(|_| self.config.require_seen_ground),
         };
         let here = Point2::new(pose.x, pose.y);
-        // pick the waypoint: skip reached / blocked / timed-out ones
-        for _ in 0..self.waypoints.len() {
-            let goal = session_from_nav * self.waypoints[self.next];
-            let dist = (goal - here).norm();
-            if dist < self.config.waypoint_reached_m {
-                self.advance(time_s, true);
-                continue;
-            }
-            let mut blocked = false;
-            let arcs = &self.config.arcs;
-            let clearance = arcs.clearance_m;
-            obstacles.for_each_near(goal, arcs.required_m(obstacles.max_radius_m()), |o| {
-                blocked |= (o.p - goal).norm() < arcs.required_m(o.radius_m);
-            });
-            let nav_goal = self.waypoints[self.next];
-            let h = self.config.lander_half_extent_m + clearance;
-            blocked |= nav_goal.x.abs() < h && nav_goal.y.abs() < h;
-            if blocked
-                || time_s - self.waypoint_since_s > self.config.waypoint_timeout_s
-                || self.waypoint_backups >= self.config.backups_per_waypoint
-            {
-                self.advance(time_s, false);
-                continue;
-            }
-            break;
-        }
-        let goal = session_from_nav * self.waypoints[self.next];
+        self.update_progress(time_s, here, obstacles);
+        let goal = self.carrot(here, obstacles);
         let to_goal = goal - here;
-        let dist = to_goal.norm();
         let bearing = wrap_angle(to_goal.y.atan2(to_goal.x) - pose.yaw);
+        let progress = self.path_progress(here);
         let full_turn_s = 2.0 * std::f64::consts::PI / self.config.point_turn_rate_rps.max(0.05);
         if self.initial_scan {
             // look all around before the first move
@@ -277,11 +333,11 @@ impl Navigator {
             self.progress.clear();
         }
         // stall: no progress over the window
-        self.progress.push((time_s, dist));
+        self.progress.push((time_s, progress));
         let window = self.config.stall_window_s;
         self.progress.retain(|&(t, _)| time_s - t <= window);
-        if let Some(&(t0, d0)) = self.progress.first() {
-            if time_s - t0 >= window * 0.95 && d0 - dist < self.config.stall_progress_m {
+        if let Some(&(t0, p0)) = self.progress.first() {
+            if time_s - t0 >= window * 0.95 && progress - p0 < self.config.stall_progress_m {
                 return self.start_backup(time_s);
             }
         }
@@ -374,6 +430,34 @@ mod tests {
         }
         assert!(nav.counts().0 >= 2, "{:?}", nav.counts());
         assert!(min_d > 0.65 + 0.3 - 0.05, "{min_d}");
+    }
+
+    #[test]
+    fn passes_waypoints_beyond_and_skips_blocked_ones_for_the_carrot() {
+        let config = NavigatorConfig {
+            waypoint_passed_m: 2.5,
+            lookahead_m: 2.0,
+            lookahead_waypoints: 4,
+            ..NavigatorConfig::default()
+        };
+        let mut obstacles = ObstacleMemory::new(&ObstacleConfig::default());
+        let path = vec![
+            Vector2::new(4.0, 0.0),
+            Vector2::new(6.0, 0.0),
+            Vector2::new(8.0, 0.0),
+            Vector2::new(10.0, 0.0),
+        ];
+        let mut nav = Navigator::new(&config, path);
+        // 1.56 m from the first waypoint but beyond it along the path: passed
+        let here = Point2::new(5.0, 1.2);
+        nav.update_progress(0.0, here, &obstacles);
+        assert_eq!(nav.counts(), (1, 0, 0));
+        assert_eq!(nav.current_waypoint(), Some(Point2::new(6.0, 0.0)));
+        // the carrot is the first waypoint at least 2 m ahead, skipping a blocked one
+        assert_eq!(nav.carrot(here, &obstacles), Point2::new(8.0, 0.0));
+        obstacles.add_rock(Point2::new(8.0, 0.2), 0.2);
+        obstacles.add_rock(Point2::new(8.0, 0.2), 0.2);
+        assert_eq!(nav.carrot(here, &obstacles), Point2::new(10.0, 0.0));
     }
 
     #[test]

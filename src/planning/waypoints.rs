@@ -46,6 +46,21 @@ impl Default for WaypointConfig {
     }
 }
 
+impl WaypointConfig {
+    /// The mission's coverage pattern: the loop around the lander (half-side 3.5 m), then
+    /// loops 4.5 m apart out to 12.5 m, whose camera strips (±3.5 m at 5 m depth) overlap
+    /// (loop closures) and reach the LAC grid's edge (±13.5 m).
+    pub fn lac_coverage() -> Self {
+        Self {
+            pattern: Pattern::NestedLoops,
+            first_loop_half_side_m: 3.5,
+            ring_spacing_m: 4.5,
+            max_half_side_m: 12.5,
+            ..Self::default()
+        }
+    }
+}
+
 /// The point at perimeter parameter `t` ∈ [0, 1) of the square of half-side `h`, starting
 /// at angle `start_rad` (the square's boundary point in that direction) and going round.
 fn square_point(h: f64, t: f64, start_rad: f64, ccw: bool) -> Vector2<f64> {
@@ -102,7 +117,13 @@ mod tests {
 
     #[test]
     fn spiral_grows_and_stays_in_bounds() {
-        let w = waypoints(&WaypointConfig::default(), Vector2::new(0.0, -5.0));
+        let config = WaypointConfig {
+            pattern: Pattern::Spiral,
+            ring_spacing_m: 2.0,
+            max_half_side_m: 13.5,
+            ..WaypointConfig::default()
+        };
+        let w = waypoints(&config, Vector2::new(0.0, -5.0));
         let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
         assert!((r(&w[0]) - 3.5).abs() < 1e-9);
         assert!((r(w.last().unwrap()) - 13.5).abs() < 0.5);
@@ -115,17 +136,20 @@ mod tests {
 
     #[test]
     fn nested_loops_are_closed_rings() {
-        let config = WaypointConfig {
-            pattern: Pattern::NestedLoops,
-            ..WaypointConfig::default()
-        };
+        // the default: the loop around the lander, then loops 4.5 m apart out to 12.5 m,
+        // whose camera strips (±3.5 m at 5 m depth) overlap and reach the grid's edge
+        let config = WaypointConfig::lac_coverage();
+        assert_eq!(config.pattern, Pattern::NestedLoops);
         let w = waypoints(&config, Vector2::new(1.0, 0.0));
         let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
         let rings: Vec<f64> = w.iter().map(r).collect();
-        assert!(rings.iter().all(|h| {
-            [3.5, 5.5, 7.5, 9.5, 11.5, 13.5]
-                .iter()
-                .any(|x| (x - h).abs() < 1e-9)
-        }));
+        assert!(rings
+            .iter()
+            .all(|h| [3.5, 8.0, 12.5].iter().any(|x| (x - h).abs() < 1e-9)));
+        for h in [3.5, 8.0, 12.5] {
+            assert!(rings.iter().any(|x| (x - h).abs() < 1e-9), "no ring at {h}");
+        }
+        // within the grid (±13.5 m) with a margin for the rover's clearance
+        assert!(rings.iter().all(|h| *h <= 13.5 - 0.75));
     }
 }

@@ -345,7 +345,9 @@ impl ViewContext<'_> {
             else {
                 continue;
             };
-            if target == RayTarget::Lander {
+            // the segmentation labels lander and rock pixels: only ground pixels give height
+            // points (the LAC's cell height is the terrain's, rocks excluded)
+            if target != RayTarget::Terrain {
                 continue;
             }
             let measured = c.stereo.perturb(&p_cam, rng);
