@@ -258,17 +258,28 @@ mod tests {
     use crate::graph::file::BuildOptions;
     use crate::graph::synthetic::{self, SyntheticConfig};
 
-    #[test]
-    fn odometry_appends_keep_the_optimum_without_solving() {
+    /// A synthetic graph of `poses` poses and `loop_closures` closures, and the pose graph
+    /// of its first `keep` poses (the rest is appended by the test).
+    fn truncated_synthetic(
+        poses: usize,
+        loop_closures: usize,
+        keep: u64,
+    ) -> (synthetic::SyntheticGraph, PoseGraph) {
         let synth = synthetic::generate(&SyntheticConfig {
-            poses: 400,
-            loop_closures: 30,
+            poses,
+            loop_closures,
             ..SyntheticConfig::default()
         });
         let mut base = synth.file.clone();
-        base.vertices.retain(|v| v.id < 300);
-        base.edges.retain(|e| e.from < 300 && e.to < 300);
+        base.vertices.retain(|v| v.id < keep);
+        base.edges.retain(|e| e.from < keep && e.to < keep);
         let graph = base.to_pose_graph(&BuildOptions::default()).unwrap();
+        (synth, graph)
+    }
+
+    #[test]
+    fn odometry_appends_keep_the_optimum_without_solving() {
+        let (_, graph) = truncated_synthetic(400, 30, 300);
         let mut inc = IncrementalGraph::new(graph, IncrementalConfig::default());
         assert!(inc.update().unwrap().optimized);
         let info = Matrix6::identity() * 100.0;
@@ -291,15 +302,7 @@ mod tests {
     /// on the batch optimum of the same graph within the linearisation error.
     #[test]
     fn incremental_loop_closures_match_the_batch_optimum() {
-        let synth = synthetic::generate(&SyntheticConfig {
-            poses: 700,
-            loop_closures: 40,
-            ..SyntheticConfig::default()
-        });
-        let mut base = synth.file.clone();
-        base.vertices.retain(|v| v.id < 600);
-        base.edges.retain(|e| e.from < 600 && e.to < 600);
-        let graph = base.to_pose_graph(&BuildOptions::default()).unwrap();
+        let (synth, graph) = truncated_synthetic(700, 40, 600);
         let mut inc = IncrementalGraph::new(graph, IncrementalConfig::default());
         assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
         let odometry: Vec<_> = synth
