@@ -158,3 +158,38 @@ fn geometric_segmenter_finds_the_known_real_rocks() {
     }
     assert!(missing.is_empty(), "rocks not found: {missing:?}");
 }
+
+/// The box under the lander's deck at the left edge of 2_915 (pixel (54, 335), 5.6 m) is no
+/// boulder: the lander stands straight above it at its depth.
+#[test]
+fn geometric_segmenter_invents_no_boulder_at_the_lander_foot() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let dir = data.join("lac-images");
+    let config = FrontEndConfig::default();
+    let segmenter = GeometricSegmenter::new(config.geometric.clone());
+    let mut fe = FrontEnd::new(config, Box::new(segmenter)).unwrap();
+    let left = read_gray_png(&dir.join("2_915_0.png")).unwrap();
+    let right = read_gray_png(&dir.join("2_915_1.png")).unwrap();
+    let result = fe.process(&left, &right).unwrap();
+    let invented: Vec<_> = result
+        .boulders
+        .iter()
+        .filter(|b| {
+            (b.pixel_centroid[0] - 54.0).abs() <= 60.0
+                && (b.pixel_centroid[1] - 335.0).abs() <= 60.0
+        })
+        .map(|b| (b.pixel_centroid, b.depth_m))
+        .collect();
+    assert!(
+        invented.is_empty(),
+        "boulders at the lander's foot: {invented:?}"
+    );
+    // the rock on the right is still found
+    assert!(result
+        .boulders
+        .iter()
+        .any(|b| (b.pixel_centroid[0] - 915.0).abs() <= 20.0
+            && (b.pixel_centroid[1] - 473.0).abs() <= 20.0));
+}

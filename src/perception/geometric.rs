@@ -57,6 +57,13 @@ pub struct GeometricConfig {
     /// Regions touching (same disparity, adjacent pixels) something higher than
     /// `max_height_m` are parts of a structure (the lander's feet and boxes): dropped.
     pub reject_touching_structures: bool,
+    /// Regions with something higher than `max_height_m` above the ground straight above
+    /// them in the image (within their columns), at their own depth (disparity within
+    /// 15 %), and at most this many metres above their top, stand under or against a
+    /// structure (the boxes and feet under the lander's deck): dropped. Natural terrain
+    /// has nothing at a rock's own depth a metre over the ground above it: what lies above
+    /// a rock in the image is farther away (smaller disparity) or sky. 0 disables the check.
+    pub structure_overhead_m: f64,
 }
 
 impl Default for GeometricConfig {
@@ -77,6 +84,7 @@ impl Default for GeometricConfig {
             min_sunlit_fraction: 0.02,
             face_disparity_px: 0.4,
             reject_touching_structures: true,
+            structure_overhead_m: 3.0,
         }
     }
 }
@@ -236,6 +244,8 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
             / region.len() as f64;
         if peak > config.max_height_m
             || base > config.max_base_height_m
+            || (config.reject_touching_structures
+                && under_structure(&region, hag, &disparity.data, w, &disparity.camera, config))
             || (shadow > config.max_shadow_fraction && lit < config.min_sunlit_fraction)
         {
             masks.push(None);
@@ -280,6 +290,47 @@ fn near_structure(
     let tol = 0.15 * d0;
     (sy.saturating_sub(r)..(sy + r + 1).min(h)).any(|y| {
         (sx.saturating_sub(r)..(sx + r + 1).min(w)).any(|x| {
+            let q = y * w + x;
+            hag[q] > config.max_height_m as f32 && (disparity[q] - d0).abs() <= tol
+        })
+    })
+}
+
+/// Whether something higher than `max_height_m` above the ground stands straight above the
+/// region in the image (its columns, up to `structure_overhead_m` above its top row) at the
+/// region's depth (disparity within 15 % of the region's median): the region lies under or
+/// against a structure (see [`GeometricConfig::structure_overhead_m`]).
+fn under_structure(
+    region: &[usize],
+    hag: &[f32],
+    disparity: &[f32],
+    w: usize,
+    camera: &super::StereoCamera,
+    config: &GeometricConfig,
+) -> bool {
+    if config.structure_overhead_m <= 0.0 || region.is_empty() {
+        return false;
+    }
+    let mut values: Vec<f32> = region
+        .iter()
+        .map(|&p| disparity[p])
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    if values.is_empty() {
+        return false;
+    }
+    let mid = values.len() / 2;
+    let d0 = *values.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let Some(z) = camera.depth_from_disparity(d0 as f64) else {
+        return false;
+    };
+    let x_min = region.iter().map(|&p| p % w).min().unwrap_or(0);
+    let x_max = region.iter().map(|&p| p % w).max().unwrap_or(0);
+    let y_top = region.iter().map(|&p| p / w).min().unwrap_or(0);
+    let rows = (config.structure_overhead_m * camera.fy / z).ceil() as usize;
+    let tol = 0.15 * d0;
+    (y_top.saturating_sub(rows)..y_top).any(|y| {
+        (x_min..=x_max).any(|x| {
             let q = y * w + x;
             hag[q] > config.max_height_m as f32 && (disparity[q] - d0).abs() <= tol
         })
@@ -381,5 +432,52 @@ fn extend_down_face(
                 region.push(q);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::perception::StereoCamera;
+
+    /// A 10 × 10 map: a low region (rows 6–8, columns 3–5, 0.3 m high) at disparity 10 and
+    /// one pixel `above` at row 2 with the given column, disparity and height.
+    fn scene(column: usize, disparity_px: f32, height_m: f32) -> bool {
+        let w = 10;
+        let mut hag = vec![0.0f32; w * w];
+        let mut disparity = vec![10.0f32; w * w];
+        let mut region = Vec::new();
+        for y in 6..9 {
+            for x in 3..6 {
+                hag[y * w + x] = 0.3;
+                region.push(y * w + x);
+            }
+        }
+        hag[2 * w + column] = height_m;
+        disparity[2 * w + column] = disparity_px;
+        let camera = StereoCamera::default();
+        under_structure(
+            &region,
+            &hag,
+            &disparity,
+            w,
+            &camera,
+            &GeometricConfig::default(),
+        )
+    }
+
+    #[test]
+    fn a_region_under_something_tall_at_its_depth_is_under_a_structure() {
+        assert!(scene(4, 10.5, 1.5));
+    }
+
+    #[test]
+    fn tall_things_farther_away_lower_or_beside_do_not_count() {
+        // farther away (terrain behind the rock)
+        assert!(!scene(4, 5.0, 1.5));
+        // not higher than a boulder can be
+        assert!(!scene(4, 10.0, 0.8));
+        // outside the region's columns
+        assert!(!scene(8, 10.0, 1.5));
     }
 }
