@@ -3,6 +3,7 @@
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
 use super::fix_gate::{agrees, Tolerance};
+use super::lander_factor::add_lander_factors;
 use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
@@ -50,6 +51,8 @@ pub fn localize_session(
     let mut attempts = Vec::new();
     let mut next_attempt_s = config.relocalize_period_s;
     let mut gate = Gate::default();
+    // frames whose lander points have been fitted
+    let mut lander_done = 0;
     while sim.step() {
         let log = sim.log();
         progress.update(MissionStage::Driving {
@@ -67,7 +70,7 @@ pub fn localize_session(
         graph.extend(log, config)?;
         let candidate = attempt(log, config, relocalizer, &graph, &mut attempts)?;
         let confirmed = candidate.map_or_else(Vec::new, |c| gate.admit(c, &graph, config));
-        let changed = !confirmed.is_empty();
+        let mut changed = !confirmed.is_empty();
         for c in confirmed {
             let record = &mut attempts[c.attempt];
             record.accepted = true;
@@ -84,6 +87,17 @@ pub fn localize_session(
         }
         if changed {
             graph.optimize()?;
+        }
+        if config.lander_factors && graph.odom_from_prior().is_some() {
+            let frames = graph.frames;
+            let added = add_lander_factors(&mut graph, log, lander_done..frames, true, config)?;
+            lander_done = frames;
+            if added > 0 {
+                graph.optimize()?;
+                changed = true;
+            }
+        }
+        if changed {
             if config.calibrate_odometry {
                 graph.calibrate(config, config.calibration_rounds)?;
             }
@@ -95,6 +109,11 @@ pub fn localize_session(
     let log = sim.finish();
     graph.extend(&log, config)?;
     graph.optimize()?;
+    if config.lander_factors && graph.odom_from_prior().is_some() {
+        let frames = graph.frames;
+        add_lander_factors(&mut graph, &log, lander_done..frames, true, config)?;
+        graph.optimize()?;
+    }
     if config.calibrate_odometry && graph.num_fixes() > 0 {
         graph.calibrate(config, config.calibration_rounds)?;
     }

@@ -2,6 +2,7 @@
 //! relocalizes against (in the optimised session frame, which is the world frame up to
 //! drift since the start is known).
 
+use super::lander_factor::add_lander_factors;
 use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
@@ -15,6 +16,9 @@ use crate::sim::moon::Moon;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::Isometry3;
 use segloc_maps::ObjectMap;
+
+/// Frames whose lander factors are added before the graph is re-optimised.
+const LANDER_CHUNK_FRAMES: usize = 30;
 
 /// What session 1 produced.
 pub struct MappedSession {
@@ -55,6 +59,18 @@ pub fn map_session(
     let log = sim.finish();
     let mut graph = TrajectoryGraph::new();
     graph.extend(&log, config)?;
+    if config.lander_factors {
+        // in time order, a chunk at a time, each placed with the estimate the earlier
+        // chunks corrected (as the rover would online)
+        let mut first = 0;
+        while first < graph.frames {
+            let end = (first + LANDER_CHUNK_FRAMES).min(graph.frames);
+            if add_lander_factors(&mut graph, &log, first..end, false, config)? > 0 {
+                graph.optimize()?;
+            }
+            first = end;
+        }
+    }
     let attempts = if config.loop_closures {
         loop_closures(&log, config, &mut graph)?
     } else {

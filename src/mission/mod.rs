@@ -9,6 +9,7 @@
 //!   recent detections against session 1's map, relocalization factors, re-optimise, tell
 //!   the planner;
 //! - [`trajectory`]: the per-session pose graph and trajectory error;
+//! - [`lander_factor`]: absolute pose factors from the points measured on the lander;
 //! - [`maps`]: height and rock maps, LAC score;
 //! - [`report`]: the JSON report and the pictures;
 //! - [`trace`]: the mission frame by frame for playback, and with the cargo feature
@@ -22,6 +23,7 @@
 //! ```
 
 pub mod fix_gate;
+pub mod lander_factor;
 pub mod lost_session;
 pub mod mapping_session;
 pub mod maps;
@@ -138,6 +140,12 @@ pub struct MissionConfig {
     pub wrong_translation_m: f64,
     /// An accepted relocalization off by more than this (degrees) counts as wrong.
     pub wrong_rotation_deg: f64,
+    /// Both sessions add an absolute pose factor for every frame whose points measured on
+    /// the lander fit its known sides ([`lander_factor`]); session 2 once it knows the prior
+    /// map's frame.
+    pub lander_factors: bool,
+    /// The lander fit.
+    pub lander: lander_factor::LanderFitConfig,
     /// Boulder fusion (maps and submaps).
     pub fusion: FusionConfig,
     /// Relocalization.
@@ -178,6 +186,8 @@ impl Default for MissionConfig {
             vo_bias_prior_yaw_scale: 0.003,
             wrong_translation_m: 0.10,
             wrong_rotation_deg: 1.0,
+            lander_factors: true,
+            lander: lander_factor::LanderFitConfig::default(),
             fusion: FusionConfig::default(),
             relocalize: RelocalizeConfig::default(),
             rock_grid: RockGridConfig::default(),
@@ -248,6 +258,13 @@ impl MissionConfig {
             self.vo_bias_prior_yaw_scale,
             self.wrong_translation_m,
             self.wrong_rotation_deg,
+            self.lander.half_extent_m,
+            self.lander.max_residual_m,
+            self.lander.max_correction_m,
+            self.lander.max_correction_deg,
+            self.lander.huber_sigma,
+            self.lander.information_scale,
+            self.lander.regularization,
         ];
         if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
             return bad("information scale, odometry sigmas and wrong thresholds must be positive");

@@ -46,6 +46,13 @@ enum ExtraFactor {
         information: Matrix6<f64>,
         kernel: RobustKernel,
     },
+    /// Absolute prior on frame `k` in the graph's own frame (e.g. from the lander).
+    Prior {
+        k: usize,
+        odom_from_rover: Isometry3<f64>,
+        information: Matrix6<f64>,
+        kernel: RobustKernel,
+    },
     /// Loop closure `j_from_k` between two frames.
     Between {
         j: usize,
@@ -178,7 +185,32 @@ impl TrajectoryGraph {
         Ok(index)
     }
 
-    /// Relocalizations and loop closures added so far.
+    /// Add an absolute prior on frame `k` in the graph's own (odometry) frame, e.g. a pose
+    /// measured from the lander when the odometry frame is the world frame; returns the
+    /// factor index.
+    pub fn add_pose_prior(
+        &mut self,
+        k: usize,
+        odom_from_rover: Isometry3<f64>,
+        information: Matrix6<f64>,
+        kernel: RobustKernel,
+    ) -> Result<usize, GraphError> {
+        let index = self.graph.add_prior_key(
+            crate::graph::VarKey::Pose(k as u64),
+            odom_from_rover,
+            information,
+            kernel,
+        )?;
+        self.extra.push(ExtraFactor::Prior {
+            k,
+            odom_from_rover,
+            information,
+            kernel,
+        });
+        Ok(index)
+    }
+
+    /// Relocalizations, loop closures and pose priors added so far.
     pub fn num_fixes(&self) -> usize {
         self.extra.len()
     }
@@ -269,6 +301,19 @@ impl TrajectoryGraph {
                         *information,
                     )?;
                     graph.set_factor_kernel(index, *kernel)?;
+                }
+                ExtraFactor::Prior {
+                    k,
+                    odom_from_rover,
+                    information,
+                    kernel,
+                } => {
+                    graph.add_prior_key(
+                        crate::graph::VarKey::Pose(*k as u64),
+                        *odom_from_rover,
+                        *information,
+                        *kernel,
+                    )?;
                 }
                 ExtraFactor::Between {
                     j,
