@@ -2,17 +2,13 @@
 
 mod common;
 
-use common::segloc;
+use common::{assert_success, segloc, stderr_of};
 use std::path::Path;
 
 fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     path
-}
-
-fn stderr_of(out: &std::process::Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 #[test]
@@ -23,7 +19,7 @@ fn sim_field_relocalizes_and_writes_its_files() {
         .arg(dir.path())
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
+    assert_success(&out);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["status"], "ok");
     assert_eq!(report["field"]["correct"], true);
@@ -43,7 +39,7 @@ fn sim_field_relocalizes_and_writes_its_files() {
         .arg(dir.path().join("query_map.json"))
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
+    assert_success(&out);
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(r["prior_from_query"].as_array().unwrap().len(), 4);
     assert!(r["inliers"].as_u64().unwrap() >= 6);
@@ -67,7 +63,7 @@ fn map_build_and_info_round_trip() {
         .arg(&map)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
+    assert_success(&out);
     let out = segloc()
         .args(["map", "info", "--json"])
         .arg(&map)
@@ -197,7 +193,7 @@ fn config_prints_and_loads_back() {
         .args(["config", "check"])
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
+    assert_success(&out);
     let bad = write(
         dir.path(),
         "bad.toml",
@@ -249,7 +245,7 @@ fn bench_associate_reports_selection_and_quality() {
         .arg(&problem)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
+    assert_success(&out);
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let selected: Vec<u64> = r["selected"]
         .as_array()

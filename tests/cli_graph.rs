@@ -1,13 +1,12 @@
 //! `segloc graph …` end to end: results, files and bad input (exit code 2, no panic).
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn segloc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_segloc"))
-        .args(args)
-        .output()
-        .expect("run segloc")
+    common::segloc().args(args).output().expect("run segloc")
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> String {

@@ -27,3 +27,14 @@ pub fn data_dir() -> Option<PathBuf> {
 pub fn segloc() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
 }
+
+/// What a finished command wrote on stderr.
+pub fn stderr_of(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Assert that a finished command exited with 0, showing its stderr otherwise.
+#[track_caller]
+pub fn assert_success(out: &std::process::Output) {
+    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(out));
+}

@@ -1,6 +1,8 @@
 //! `segloc demo`: the main job on built-in data, end to end through the binary.
 
-use std::process::Command;
+mod common;
+
+use common::segloc;
 
 #[test]
 fn demo_runs_the_mission_and_writes_report_pictures_and_recording() {
@@ -8,7 +10,7 @@ fn demo_runs_the_mission_and_writes_report_pictures_and_recording() {
     let config = dir.path().join("short.toml");
     std::fs::write(&config, "seconds_per_session = 60.0\n").unwrap();
     let out_dir = dir.path().join("demo");
-    let output = Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let output = segloc()
         .args(["demo", "--seed", "4", "--mission-config"])
         .arg(&config)
         .arg("--out")
@@ -61,7 +63,7 @@ fn demo_refuses_a_bad_mission_config_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("bad.toml");
     std::fs::write(&config, "seconds_per_session = \"long\"\n").unwrap();
-    let output = Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let output = segloc()
         .args(["demo", "--mission-config"])
         .arg(&config)
         .arg("--out")

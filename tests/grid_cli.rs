@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::segloc;
+use common::{assert_success, segloc};
 use segloc_maps::{grid_to_string, read_grid_csv, LacGrid};
 
 fn small_truth() -> LacGrid {
@@ -33,12 +33,7 @@ fn score_prints_exact_points() {
         .arg(dir.path().join("r.png"))
         .output()
         .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["geometric"], 300.0 * 15.0 / 16.0);
     assert_eq!(v["rock_f1"], 0.5); // TP 1, FP 1, FN 1
@@ -124,12 +119,7 @@ fn rocks_from_a_small_traverse() {
         .arg(&g)
         .output()
         .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let grid = read_grid_csv(&g).unwrap();
     assert_eq!(grid.num_cells(), 32_400);
     assert_eq!(grid.filled_count(), 0);
@@ -169,12 +159,7 @@ fn real_rock_map_scores_above_raw_counting() {
         .arg(&g)
         .output()
         .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let out = segloc()
         .args(["grid", "score", "--json"])
         .arg(&g)

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::segloc;
+use common::{assert_success, segloc};
 use segloc::eval::merge::{evaluate_merge, MergeEvalOptions};
 use segloc::landmarks::view_bias::{
     estimate_view_bias, LUNARLOC_VIEW_BIAS_M, LUNARLOC_VIEW_BIAS_SIGMA_M,
@@ -84,12 +84,7 @@ fn cli_merge_writes_a_map_and_reports_each_input() {
         .args([t(3), t(5), t(12)])
         .output()
         .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let maps = r["maps"].as_array().unwrap();
     assert_eq!(maps.len(), 3);

@@ -1,8 +1,11 @@
 //! The two-session mission end to end: a short mission on one seed, through the library and
 //! the CLI's JSON.
 
+mod common;
+
+use common::segloc;
+
 use segloc::mission::{run_mission, MissionConfig};
-use std::process::Command;
 
 fn short() -> MissionConfig {
     MissionConfig {
@@ -42,7 +45,7 @@ fn global_factors_reduce_session_two_error_and_no_wrong_relocalization() {
 #[test]
 fn cli_json_has_the_report_fields() {
     let dir = tempfile::tempdir().unwrap();
-    let output = Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let output = segloc()
         .args([
             "mission",
             "--seed",
@@ -84,7 +87,7 @@ fn cli_json_has_the_report_fields() {
 
 #[test]
 fn bad_seconds_is_bad_input() {
-    let output = Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let output = segloc()
         .args(["mission", "--seconds", "-3"])
         .output()
         .unwrap();

@@ -3,6 +3,10 @@
 //! `scripts/fetch-onnxruntime.sh` fetches. Without them the tests skip (saying so), except
 //! under `CI=true`, where `.ci/run` runs both scripts first and a missing piece fails.
 
+mod common;
+
+use common::segloc;
+
 use std::path::PathBuf;
 
 use segloc::perception::onnx::{runtime_available, OnnxSegmenter, YoloSegConfig};
@@ -119,7 +123,7 @@ fn bad_models_are_refused_with_the_file_named() {
         .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data")));
     let left = data.join("lac-images/1_155_0.png");
     if left.is_file() {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+        let out = segloc()
             .args(["detect", "--segmenter", "onnx", "--model"])
             .arg(&corrupt)
             .arg("--left")

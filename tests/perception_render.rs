@@ -1,6 +1,10 @@
 //! The perception front end on rendered stereo pairs of known geometry: depth accuracy of a
 //! boulder at 5 m, detection of resting spheres, nothing invented on bare ground.
 
+mod common;
+
+use common::{assert_success, segloc};
+
 use segloc::perception::render::{render_stereo, SyntheticScene};
 use segloc::perception::{FrontEnd, FrontEndConfig, GeometricSegmenter, StereoCamera};
 
@@ -123,19 +127,14 @@ fn lac_playback_writes_detections_that_map_build_reads() {
     let lac = tmp.path().join("rendered.lac");
     writer.write(&lac).unwrap();
     let detections = tmp.path().join("det.csv");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let out = segloc()
         .args(["detect", "--lac"])
         .arg(&lac)
         .arg("-o")
         .arg(&detections)
         .output()
         .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let set = segloc::maps::read_detections(&detections).unwrap();
     assert_eq!(set.frame, "world");
     assert_eq!(set.len(), 2, "{set:?}");
@@ -146,25 +145,20 @@ fn lac_playback_writes_detections_that_map_build_reads() {
     let range = (d.p_world - rover).norm();
     assert!((range - 4.05).abs() < 0.3, "range {range}");
     let map = tmp.path().join("map.json");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let out = segloc()
         .args(["map", "build"])
         .arg(&detections)
         .arg("-o")
         .arg(&map)
         .output()
         .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
 
     // truncated archive: exit code 2 and the file named
     let bytes = std::fs::read(&lac).unwrap();
     let cut = tmp.path().join("cut.lac");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_segloc"))
+    let out = segloc()
         .args(["detect", "--lac"])
         .arg(&cut)
         .arg("-o")
