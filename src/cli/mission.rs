@@ -9,6 +9,7 @@ use segloc::mission::{
     run_mission_with_progress, MissionConfig, MissionOutput, MissionProgress, MissionStage, Silent,
 };
 use segloc::relocalize::RelocalizeConfig;
+use std::cell::Cell;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `segloc mission`.
@@ -49,7 +50,7 @@ pub fn run(
     let output = if args.progress {
         let bar = Bar::new(config.seconds_per_session);
         let output = run_mission_with_progress(args.seed, &config, &bar);
-        bar.0.finish_and_clear();
+        bar.bar.finish_and_clear();
         output?
     } else {
         run_mission_with_progress(args.seed, &config, &Silent)?
@@ -98,8 +99,12 @@ fn mission_config(
     })
 }
 
-/// A progress bar over both sessions' simulated time.
-struct Bar(ProgressBar);
+/// A progress bar over both sessions' simulated time; `session` is the one its message
+/// names (0: none yet), so the message is set once per session, not every tick.
+struct Bar {
+    bar: ProgressBar,
+    session: Cell<usize>,
+}
 
 impl Bar {
     const STEPS_PER_S: f64 = 10.0;
@@ -110,7 +115,10 @@ impl Bar {
             ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {msg}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
-        Bar(bar)
+        Bar {
+            bar,
+            session: Cell::new(0),
+        }
     }
 }
 
@@ -123,17 +131,17 @@ impl MissionProgress for Bar {
                 duration_s,
             } => {
                 let done_s = (session.saturating_sub(1)) as f64 * duration_s + time_s;
-                self.0.set_position((done_s * Self::STEPS_PER_S) as u64);
-                if self.0.message().is_empty() || time_s < 0.1 {
-                    self.0.set_message(match session {
+                self.bar.set_position((done_s * Self::STEPS_PER_S) as u64);
+                if self.session.replace(session) != session {
+                    self.bar.set_message(match session {
                         1 => "session 1: mapping from a known start".to_string(),
                         _ => format!("session {session}: lost, relocalizing"),
                     });
                 }
             }
             MissionStage::Mapping => {
-                self.0.set_position(self.0.length().unwrap_or(0));
-                self.0.set_message("height and rock maps, LAC score");
+                self.bar.set_position(self.bar.length().unwrap_or(0));
+                self.bar.set_message("height and rock maps, LAC score");
             }
         }
     }
