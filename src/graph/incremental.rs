@@ -258,6 +258,33 @@ mod tests {
     use crate::graph::file::BuildOptions;
     use crate::graph::synthetic::{self, SyntheticConfig};
 
+    /// Pose 0 fixed and four unit steps along x (identity information), not yet solved.
+    fn unit_chain(config: IncrementalConfig) -> IncrementalGraph {
+        let mut g = PoseGraph::new();
+        g.add_pose(0, Isometry3::identity()).unwrap();
+        g.fix(0).unwrap();
+        let mut inc = IncrementalGraph::new(g, config);
+        let z = Isometry3::translation(1.0, 0.0, 0.0);
+        for id in 1..5 {
+            inc.add_odometry(id - 1, id, z, Matrix6::identity())
+                .unwrap();
+        }
+        inc
+    }
+
+    /// A loop closure 0 → 4 of 3.5 m on [`unit_chain`]: the optimum puts pose 4 at 3.6 m.
+    fn close_unit_chain(inc: &mut IncrementalGraph) {
+        inc.graph_mut()
+            .add_between(
+                0,
+                4,
+                Isometry3::translation(3.5, 0.0, 0.0),
+                Matrix6::identity(),
+                RobustKernel::None,
+            )
+            .unwrap();
+    }
+
     /// A synthetic graph of `poses` poses and `loop_closures` closures, and the pose graph
     /// of its first `keep` poses (the rest is appended by the test).
     fn truncated_synthetic(
@@ -353,29 +380,12 @@ mod tests {
     /// (translation-only) factors the quadratic model is exact.
     #[test]
     fn incremental_update_is_exact_on_a_linear_problem() {
-        let mut g = PoseGraph::new();
-        g.add_pose(0, Isometry3::identity()).unwrap();
-        g.fix(0).unwrap();
-        let config = IncrementalConfig {
+        let mut inc = unit_chain(IncrementalConfig {
             relinearize_threshold: 1.0,
             ..IncrementalConfig::default()
-        };
-        let mut inc = IncrementalGraph::new(g, config);
-        let info = Matrix6::identity();
-        let z = Isometry3::translation(1.0, 0.0, 0.0);
-        for id in 1..5 {
-            inc.add_odometry(id - 1, id, z, info).unwrap();
-        }
+        });
         assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
-        inc.graph_mut()
-            .add_between(
-                0,
-                4,
-                Isometry3::translation(3.5, 0.0, 0.0),
-                info,
-                RobustKernel::None,
-            )
-            .unwrap();
+        close_unit_chain(&mut inc);
         let r = inc.update().unwrap();
         assert_eq!(r.method, UpdateMethod::Incremental);
         let x4 = inc.graph().pose(4).unwrap().translation.x;
@@ -387,29 +397,12 @@ mod tests {
 
     #[test]
     fn a_loop_closure_triggers_a_full_solve() {
-        let mut g = PoseGraph::new();
-        g.add_pose(0, Isometry3::identity()).unwrap();
-        g.fix(0).unwrap();
-        let config = IncrementalConfig {
+        let mut inc = unit_chain(IncrementalConfig {
             incremental: false,
             ..IncrementalConfig::default()
-        };
-        let mut inc = IncrementalGraph::new(g, config);
-        let info = Matrix6::identity();
-        let z = Isometry3::translation(1.0, 0.0, 0.0);
-        for id in 1..5 {
-            inc.add_odometry(id - 1, id, z, info).unwrap();
-        }
+        });
         assert!(inc.update().unwrap().optimized);
-        inc.graph_mut()
-            .add_between(
-                0,
-                4,
-                Isometry3::translation(3.5, 0.0, 0.0),
-                info,
-                RobustKernel::None,
-            )
-            .unwrap();
+        close_unit_chain(&mut inc);
         let r = inc.update().unwrap();
         assert!(r.optimized);
         let x4 = inc.graph().pose(4).unwrap().translation.x;
