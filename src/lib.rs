@@ -19,6 +19,7 @@ pub mod graph;
 pub mod io;
 pub mod landmarks;
 pub mod mapping;
+pub mod memory;
 pub mod merge;
 pub mod mission;
 pub mod perception;

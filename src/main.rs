@@ -5,6 +5,10 @@ mod cli;
 
 use clap::Parser;
 
+/// Large numeric buffers (Cholesky factors, stereo cost volumes) on transparent huge pages.
+#[global_allocator]
+static ALLOCATOR: segloc::memory::HugePageAllocator = segloc::memory::HugePageAllocator;
+
 fn main() {
     restore_default_sigpipe();
     let parsed = cli::Cli::parse();

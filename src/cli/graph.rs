@@ -234,6 +234,7 @@ struct OptimizeOutput<'a> {
     final_cost: f64,
     iterations: usize,
     factorizations: usize,
+    single_precision_factorizations: usize,
     factor_nnz: usize,
     time_ms: f64,
     time_median_ms: f64,
@@ -324,6 +325,7 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
             final_cost: report.final_cost,
             iterations: report.iterations,
             factorizations: report.factorizations,
+            single_precision_factorizations: report.single_precision_factorizations,
             factor_nnz: report.factor_nnz,
             time_ms: report.time_ms,
             time_median_ms,
@@ -366,8 +368,8 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
         }
         let p = &report.profile;
         println!(
-            "time: analysis {:.1} ms, initialize {:.1} ms, linearize {:.1} ms, factorize {:.1} ms ({} times), solve {:.1} ms, cost {:.1} ms; factor nnz {}",
-            p.analysis_ms, p.initialize_ms, p.linearize_ms, p.factorize_ms, report.factorizations, p.solve_ms, p.cost_ms, report.factor_nnz
+            "time: analysis {:.1} ms, initialize {:.1} ms, linearize {:.1} ms, factorize {:.1} ms ({} times, {} in single precision), solve {:.1} ms, cost {:.1} ms; factor nnz {}",
+            p.analysis_ms, p.initialize_ms, p.linearize_ms, p.factorize_ms, report.factorizations, report.single_precision_factorizations, p.solve_ms, p.cost_ms, report.factor_nnz
         );
         println!(
             "initial cost {:.6}, final cost {:.6}, {} iterations, {:.1} ms, {:?}",

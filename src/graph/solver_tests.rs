@@ -294,6 +294,51 @@ fn chordal_initialisation_starts_close_to_the_optimum() {
 }
 
 #[test]
+fn single_precision_factors_reach_the_double_precision_optimum() {
+    let synth = synthetic::generate(&synthetic::SyntheticConfig {
+        poses: 400,
+        loop_closures: 60,
+        ..Default::default()
+    });
+    let solve = |regime: f64| {
+        let mut g = synth
+            .file
+            .to_pose_graph(&file::BuildOptions::default())
+            .unwrap();
+        let config = SolverConfig {
+            single_precision_regime: regime,
+            relative_tolerance: 1e-10,
+            absolute_tolerance: 0.0,
+            ..SolverConfig::default()
+        };
+        let report = g.optimize(&config).unwrap();
+        (g, report)
+    };
+    let (double, r_double) = solve(f64::INFINITY);
+    assert_eq!(r_double.single_precision_factorizations, 0);
+    let (mixed, r_mixed) = solve(0.0);
+    assert!(r_mixed.converged, "{:?}", r_mixed.termination);
+    // Every factorisation was in single precision, and the refined steps still converge to
+    // the same optimum.
+    assert_eq!(
+        r_mixed.single_precision_factorizations,
+        r_mixed.factorizations
+    );
+    let rel = (r_mixed.final_cost - r_double.final_cost).abs() / r_double.final_cost;
+    assert!(
+        rel < 1e-9,
+        "{} vs {}",
+        r_mixed.final_cost,
+        r_double.final_cost
+    );
+    for id in 0..400 {
+        let a = double.pose(id).unwrap();
+        let b = mixed.pose(id).unwrap();
+        assert!(se3::log(&(a.inverse() * b)).norm() < 1e-6, "pose {id}");
+    }
+}
+
+#[test]
 fn gnc_rejects_a_wrong_loop_closure() {
     let synth = synthetic::generate(&synthetic::SyntheticConfig {
         poses: 200,

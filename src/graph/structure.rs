@@ -49,6 +49,15 @@ pub(crate) struct FactorBlocks<const B: usize> {
     pub gb: SVector<f64, B>,
 }
 
+/// Floating-point precision of a numeric factorisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Precision {
+    /// `f32` factor, solves refined in `f64`.
+    Single,
+    /// `f64` factor.
+    Double,
+}
+
 /// Sparse normal equations with B×B blocks and a reusable symbolic Cholesky factorisation.
 pub(crate) struct NormalEquations<const B: usize> {
     /// Block column → variable index (block columns are in elimination order).
@@ -62,14 +71,20 @@ pub(crate) struct NormalEquations<const B: usize> {
     hessian: Vec<f64>,
     /// Damped copy handed to the factorisation.
     damped: Vec<f64>,
+    /// Its single-precision copy, for single-precision factorisations.
+    damped_f32: Vec<f32>,
+    /// Right-hand side scratch of single-precision solves.
+    scratch_f32: Vec<f32>,
     /// Positions of the scalar diagonal entries.
     diag_pos: Vec<usize>,
     /// Gradient `Σ Jᵀ W r`.
     pub gradient: Vec<f64>,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
-    /// True when `l_values` holds a valid factor.
-    factored: bool,
+    /// Single-precision factor values (allocated on first use).
+    l_values_f32: Vec<f32>,
+    /// Which factor is valid, if any.
+    factored: Option<Precision>,
     workspace: MemBuffer,
     /// Scratch for solves with several right-hand sides, and how many it fits.
     multi_workspace: Option<(usize, MemBuffer)>,
@@ -200,7 +215,9 @@ impl<const B: usize> NormalEquations<B> {
         let par = Par::Seq;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+            symbolic.factorize_numeric_llt_scratch::<f32>(par, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, par),
+            symbolic.solve_in_place_scratch::<f32>(1, par),
         ]);
         let workspace = MemBuffer::try_new(req)
             .map_err(|_| GraphError::LinearAlgebra("out of memory".into()))?;
@@ -210,6 +227,8 @@ impl<const B: usize> NormalEquations<B> {
             order,
             hessian: vec![0.0; row_idx.len()],
             damped: vec![0.0; row_idx.len()],
+            damped_f32: Vec::new(),
+            scratch_f32: Vec::new(),
             col_ptr,
             row_idx,
             slots,
@@ -217,7 +236,8 @@ impl<const B: usize> NormalEquations<B> {
             gradient: vec![0.0; n],
             symbolic,
             l_values,
-            factored: false,
+            l_values_f32: Vec::new(),
+            factored: None,
             workspace,
             multi_workspace: None,
         })
@@ -346,11 +366,23 @@ impl<const B: usize> NormalEquations<B> {
         }
     }
 
-    /// Factorises `H + diag(damping(i, H_ii))`, keeping the factor for
+    /// Factorises `H + diag(damping(i, H_ii))` in double precision, keeping the factor for
     /// [`NormalEquations::solve`].
     ///
     /// Returns `false` when the damped matrix is not numerically positive definite.
     pub fn factorize_damped(&mut self, damping: impl Fn(usize, f64) -> f64) -> bool {
+        self.factorize_damped_in(Precision::Double, damping)
+    }
+
+    /// Like [`NormalEquations::factorize_damped`], in the given precision. A single-precision
+    /// factor halves the floating-point work and memory traffic of the factorisation; its
+    /// solves are refined once against the double-precision matrix (see
+    /// [`NormalEquations::solve`]).
+    pub fn factorize_damped_in(
+        &mut self,
+        precision: Precision,
+        damping: impl Fn(usize, f64) -> f64,
+    ) -> bool {
         self.damped.copy_from_slice(&self.hessian);
         for (i, &p) in self.diag_pos.iter().enumerate() {
             self.damped[p] += damping(i, self.hessian[p]);
@@ -359,36 +391,118 @@ impl<const B: usize> NormalEquations<B> {
         // The CSC arrays were built consistently in `analyse`; `new_checked` re-verifies them.
         let symbolic =
             SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
-        let matrix = SparseColMatRef::new(symbolic, &self.damped);
-        let result = self.symbolic.factorize_numeric_llt::<f64>(
-            &mut self.l_values,
-            matrix,
-            Side::Lower,
-            Default::default(),
-            Par::Seq,
-            MemStack::new(&mut self.workspace),
-            Default::default(),
-        );
+        let stack = MemStack::new(&mut self.workspace);
         // The only failure is a non-positive pivot: not positive definite.
-        self.factored = result.is_ok();
-        self.factored
+        let ok = match precision {
+            Precision::Double => {
+                let matrix = SparseColMatRef::new(symbolic, &self.damped);
+                self.symbolic
+                    .factorize_numeric_llt::<f64>(
+                        &mut self.l_values,
+                        matrix,
+                        Side::Lower,
+                        Default::default(),
+                        Par::Seq,
+                        stack,
+                        Default::default(),
+                    )
+                    .is_ok()
+            }
+            Precision::Single => {
+                self.damped_f32.clear();
+                self.damped_f32
+                    .extend(self.damped.iter().map(|&v| v as f32));
+                self.l_values_f32.resize(self.symbolic.len_val(), 0.0);
+                let matrix = SparseColMatRef::new(symbolic, &self.damped_f32);
+                self.symbolic
+                    .factorize_numeric_llt::<f32>(
+                        &mut self.l_values_f32,
+                        matrix,
+                        Side::Lower,
+                        Default::default(),
+                        Par::Seq,
+                        stack,
+                        Default::default(),
+                    )
+                    .is_ok()
+            }
+        };
+        self.factored = ok.then_some(precision);
+        ok
     }
 
     /// Solves `(H + D) δ = −g` with the last factor and the current gradient.
     ///
+    /// With a single-precision factor the solution gets one step of iterative refinement:
+    /// the residual `−g − (H + D) δ` is formed in double precision and solved for a
+    /// correction, which brings the step to near double-precision accuracy on well-scaled
+    /// systems.
+    ///
     /// Returns `false` if there is no valid factor or the step is not finite.
     pub fn solve(&mut self, step: &mut [f64]) -> bool {
-        if !self.factored {
+        let Some(precision) = self.factored else {
             return false;
-        }
+        };
         for (s, g) in step.iter_mut().zip(&self.gradient) {
             *s = -g;
         }
         let n = self.dim();
-        let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.l_values);
-        let rhs = MatMut::from_column_major_slice_mut(step, n, 1);
-        llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.workspace));
+        match precision {
+            Precision::Double => {
+                let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.l_values);
+                let rhs = MatMut::from_column_major_slice_mut(step, n, 1);
+                llt.solve_in_place_with_conj(
+                    Conj::No,
+                    rhs,
+                    Par::Seq,
+                    MemStack::new(&mut self.workspace),
+                );
+            }
+            Precision::Single => {
+                let mut x = std::mem::take(&mut self.scratch_f32);
+                x.clear();
+                x.extend(step.iter().map(|&v| v as f32));
+                self.solve_f32(&mut x);
+                // One refinement: r = b − A x in double precision, then x += A⁻¹ r.
+                let b: Vec<f64> = step.to_vec();
+                for (s, &v) in step.iter_mut().zip(&x) {
+                    *s = f64::from(v);
+                }
+                let mut residual = b;
+                self.sub_damped_times(step, &mut residual);
+                x.clear();
+                x.extend(residual.iter().map(|&v| v as f32));
+                self.solve_f32(&mut x);
+                for (s, &v) in step.iter_mut().zip(&x) {
+                    *s += f64::from(v);
+                }
+                self.scratch_f32 = x;
+            }
+        }
         step.iter().all(|v| v.is_finite())
+    }
+
+    /// Solves with the single-precision factor in place.
+    fn solve_f32(&mut self, x: &mut [f32]) {
+        let n = self.dim();
+        let llt = LltRef::<'_, usize, f32>::new(&self.symbolic, &self.l_values_f32);
+        let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
+        llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.workspace));
+    }
+
+    /// `out −= (H + D) x`, with the symmetric damped matrix stored as its lower triangle.
+    fn sub_damped_times(&self, x: &[f64], out: &mut [f64]) {
+        for (c, &xc) in x.iter().enumerate() {
+            let range = self.col_ptr[c]..self.col_ptr[c + 1];
+            let mut acc = 0.0;
+            for (&r, &v) in self.row_idx[range.clone()].iter().zip(&self.damped[range]) {
+                out[r] -= v * xc;
+                if r != c {
+                    acc += v * x[r];
+                }
+            }
+            out[c] -= acc;
+        }
     }
 
     /// Solves `(H + D) X = R` in place for the `ncols` right-hand sides stored column-major
@@ -398,7 +512,7 @@ impl<const B: usize> NormalEquations<B> {
     /// finite.
     pub fn solve_columns(&mut self, rhs: &mut [f64], ncols: usize) -> bool {
         let n = self.dim();
-        if !self.factored || ncols == 0 || rhs.len() != n * ncols {
+        if self.factored != Some(Precision::Double) || ncols == 0 || rhs.len() != n * ncols {
             return false;
         }
         if self
@@ -434,7 +548,7 @@ impl<const B: usize> NormalEquations<B> {
 
     /// True when a valid numeric factor is available.
     pub fn has_factor(&self) -> bool {
-        self.factored
+        self.factored.is_some()
     }
 
     /// Number of non-zeros of the Cholesky factor (a measure of fill).
