@@ -213,3 +213,33 @@ fn corrupt_and_ate_subcommands_work() {
     assert_eq!(v["matched"], 4);
     assert!(v["position_rmse_m"].as_f64().unwrap() < 1e-12);
 }
+
+#[test]
+fn solver_config_prints_and_loads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "square.graph", &square_toro());
+    let o = segloc(&["graph", "optimize", &input, "--print-config"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let printed = String::from_utf8_lossy(&o.stdout).replace(
+        "single_precision_regime = 0.01",
+        "single_precision_regime = inf",
+    );
+    assert!(printed.contains("single_precision_regime = inf"), "{printed}");
+    let config = write(dir.path(), "solver.toml", &printed);
+    let o = segloc(&[
+        "graph",
+        "optimize",
+        &input,
+        "--solver-config",
+        &config,
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["single_precision_factorizations"], 0);
+    // A bad value names the file and exits 2.
+    let bad = write(dir.path(), "bad.toml", "max_iterations = \"many\"\n");
+    let o = segloc(&["graph", "optimize", &input, "--solver-config", &bad]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
+}

@@ -89,9 +89,10 @@ pub struct OptimizeArgs {
     /// Chord steps after each factorisation (overrides the configuration).
     #[arg(long)]
     pub chord_steps: Option<usize>,
-    /// Solver configuration file (TOML, fields of `SolverConfig`).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    /// Solver configuration file (TOML, fields of `SolverConfig`, as printed by
+    /// `--print-config`). Named apart from the global `--config` (the relocalizer's).
+    #[arg(long, value_name = "FILE")]
+    pub solver_config: Option<PathBuf>,
     /// Print the effective solver configuration as TOML and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -251,7 +252,7 @@ struct OptimizeOutput<'a> {
 }
 
 fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
-    let mut config = match &a.config {
+    let mut config = match &a.solver_config {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|source| GraphError::Io {
                 path: p.clone(),
