@@ -224,7 +224,10 @@ fn solver_config_prints_and_loads_back() {
         "single_precision_regime = 0.01",
         "single_precision_regime = inf",
     );
-    assert!(printed.contains("single_precision_regime = inf"), "{printed}");
+    assert!(
+        printed.contains("single_precision_regime = inf"),
+        "{printed}"
+    );
     let config = write(dir.path(), "solver.toml", &printed);
     let o = segloc(&[
         "graph",

@@ -6,18 +6,21 @@
 //! rows of its square-root factor at their linearisation point), and only the factors added
 //! since then are evaluated exactly.
 //!
-//! An update solves a small dense problem over the *active* variables: the old variables `T`
-//! touched by the new factors and the variables added since the batch. Minimising `q` over
-//! every other old variable leaves the marginal `½ (δ_T − δ*_T)ᵀ S (δ_T − δ*_T)` with
-//! `S = ((H₀⁻¹)_TT)⁻¹` and `δ* = −H₀⁻¹ g₀`; `(H₀⁻¹)_{·T}` costs six triangular solve pairs per
-//! touched variable, computed once and kept until the next batch. Gauss–Newton on the small
-//! problem (new factors relinearised every iteration) gives `δ_T` and the new poses; one more
-//! solve, `δ = H₀⁻¹(P_T μ − g₀)` with `μ = S(δ_T − δ*_T)`, moves every old variable to the
-//! minimiser of the model given `δ_T`. The result is the exact optimum of the model; it
-//! differs from the full nonlinear optimum only through the linearisation of the old
-//! factors, so the caller runs a batch again when the steps of old variables grow beyond a
-//! threshold (iSAM2's relinearisation threshold) or the active set gets large.
+//! An update solves a small dense problem over the *active* variables: the old variables
+//! `T` touched by the new factors and the variables added since the batch. Minimising `q`
+//! over every other old variable leaves the marginal `½ (δ_T − δ*_T)ᵀ S (δ_T − δ*_T)` with
+//! `S = ((H₀⁻¹)_TT)⁻¹` and `δ* = −H₀⁻¹ g₀`. `(H₀⁻¹)_TT` comes from forward solves `L₀⁻¹
+//! E_v` along each touched variable's elimination path (`factor_paths`), a small part of
+//! the factor, computed once per touched variable and kept until the next batch.
+//! Gauss–Newton on the small problem (new factors relinearised every iteration) gives `δ_T`
+//! and the new poses; one backward solve, `δ = H₀⁻¹(P_T μ − g₀) = δ* + L₀⁻ᵀ Σ_v (L₀⁻¹E_v)
+//! μ_v` with `μ = S(δ_T − δ*_T)`, moves every old variable to the minimiser of the model
+//! given `δ_T`. The result is the exact optimum of the model; it differs from the full
+//! nonlinear optimum only through the linearisation of the old factors, so the caller runs
+//! a batch again when the steps of old variables grow beyond a threshold (iSAM2's
+//! relinearisation threshold) or the active set gets large.
 
+use super::factor_paths::{FactorPaths, PathColumns};
 use super::factors::Factor;
 use super::pose_graph::PoseGraph;
 use super::se3;
@@ -58,10 +61,15 @@ pub(crate) struct LinearModel {
     delta_star: Vec<f64>,
     /// Cost at `x₀`.
     cost0: f64,
+    /// Elimination tree of the factor, for solves with sparse right-hand sides.
+    paths: FactorPaths,
     /// Old free variables touched by factors added since the batch.
     touched: Vec<usize>,
-    /// `H₀⁻¹ E_v` (dim × 6, column-major) for each touched variable.
-    columns: Vec<Vec<f64>>,
+    /// `L₀⁻¹ E_v` for each touched variable, on its elimination path; `(H₀⁻¹)_uv` is the
+    /// product of two of them.
+    columns: Vec<PathColumns>,
+    /// `(H₀⁻¹)_TT` over the touched variables, grown as variables are touched.
+    covariance_tt: DMatrix<f64>,
 }
 
 impl LinearModel {
@@ -89,6 +97,7 @@ impl LinearModel {
             return None;
         }
         let block_of = system.block_of(graph.poses.len());
+        let paths = FactorPaths::new(system.supernodal_factor()?);
         Some(Self {
             x0: graph.poses.clone(),
             fixed: graph.fixed_flags().to_vec(),
@@ -98,8 +107,10 @@ impl LinearModel {
             block_of,
             delta_star,
             cost0,
+            paths,
             touched: Vec::new(),
             columns: Vec::new(),
+            covariance_tt: DMatrix::zeros(0, 0),
         })
     }
 
@@ -183,18 +194,19 @@ impl LinearModel {
             }
         }
 
-        // Every old variable to the model's minimiser given δ_T.
+        // Every old variable to the model's minimiser given δ_T:
+        // δ = H₀⁻¹(P_T μ − g₀) = δ* + L₀⁻ᵀ Σ_v (L₀⁻¹E_v) μ_v.
         let (e, _) = self.prior_residual(&poses, &target);
         let mu = &s * &e;
-        let mut rhs: Vec<f64> = self.g0.iter().map(|g| -g).collect();
-        for (i, &v) in self.touched.iter().enumerate() {
-            let b = self.block_of[v]?;
-            for r in 0..6 {
-                rhs[6 * b + r] += mu[6 * i + r];
-            }
+        let mut rhs = vec![0.0; self.system.dim()];
+        for (i, column) in self.columns.iter().enumerate() {
+            column.scatter_add(&mu.as_slice()[6 * i..6 * i + 6], &mut rhs);
         }
-        if !self.system.solve_columns(&mut rhs, 1) {
+        if !self.system.backward_solve(&mut rhs) {
             return None;
+        }
+        for (d, star) in rhs.iter_mut().zip(&self.delta_star) {
+            *d += star;
         }
         let mut old_step_max: f64 = 0.0;
         for (v, blk) in self.block_of.iter().enumerate() {
@@ -227,43 +239,33 @@ impl LinearModel {
         })
     }
 
-    /// Solves for `H₀⁻¹ E_v` of newly touched variables (six columns each).
+    /// Forward-solves `L₀⁻¹ E_v` of newly touched variables (six columns each) along their
+    /// elimination paths, and extends `(H₀⁻¹)_TT` by their rows and columns.
     fn add_columns(&mut self, fresh: &[usize]) -> Option<()> {
-        let n = self.system.dim();
-        let mut rhs = vec![0.0; n * 6 * fresh.len()];
-        for (i, &v) in fresh.iter().enumerate() {
+        let llt = self.system.supernodal_factor()?;
+        let old = self.touched.len();
+        for &v in fresh {
             let b = self.block_of[v]?;
-            for c in 0..6 {
-                rhs[(6 * i + c) * n + 6 * b + c] = 1.0;
+            self.columns.push(self.paths.forward_unit(llt, 6 * b, 6));
+            self.touched.push(v);
+        }
+        let t = self.touched.len();
+        let mut m = self.covariance_tt.clone().resize(6 * t, 6 * t, 0.0);
+        for j in old..t {
+            for i in 0..=j {
+                let block = self.columns[i].gram(&self.columns[j]);
+                m.view_mut((6 * i, 6 * j), (6, 6)).copy_from(&block);
+                m.view_mut((6 * j, 6 * i), (6, 6))
+                    .copy_from(&block.transpose());
             }
         }
-        if !self.system.solve_columns(&mut rhs, 6 * fresh.len()) {
-            return None;
-        }
-        for (i, &v) in fresh.iter().enumerate() {
-            self.touched.push(v);
-            self.columns.push(rhs[6 * i * n..6 * (i + 1) * n].to_vec());
-        }
+        self.covariance_tt = m;
         Some(())
     }
 
     /// `S = ((H₀⁻¹)_TT)⁻¹`.
     fn marginal_information(&self) -> Option<DMatrix<f64>> {
-        let t = self.touched.len();
-        let n = self.system.dim();
-        let mut m = DMatrix::zeros(6 * t, 6 * t);
-        for (i, &vi) in self.touched.iter().enumerate() {
-            let bi = self.block_of[vi]?;
-            for (j, col) in self.columns.iter().enumerate() {
-                for c in 0..6 {
-                    for r in 0..6 {
-                        m[(6 * i + r, 6 * j + c)] = col[c * n + 6 * bi + r];
-                    }
-                }
-            }
-        }
-        let m = (&m + m.transpose()) * 0.5;
-        Some(m.cholesky()?.inverse())
+        Some(self.covariance_tt.clone().cholesky()?.inverse())
     }
 
     fn block_vector(&self, x: &[f64], v: usize) -> Vector6<f64> {

@@ -48,6 +48,7 @@
 
 mod components;
 mod error;
+mod factor_paths;
 mod factors;
 pub mod file;
 pub mod g2o;

@@ -11,9 +11,10 @@ use super::factors::Factor;
 use super::ordering;
 use super::GraphError;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymmetricOrdering,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -86,8 +87,6 @@ pub(crate) struct NormalEquations<const B: usize> {
     /// Which factor is valid, if any.
     factored: Option<Precision>,
     workspace: MemBuffer,
-    /// Scratch for solves with several right-hand sides, and how many it fits.
-    multi_workspace: Option<(usize, MemBuffer)>,
 }
 
 impl<const B: usize> NormalEquations<B> {
@@ -239,7 +238,6 @@ impl<const B: usize> NormalEquations<B> {
             l_values_f32: Vec::new(),
             factored: None,
             workspace,
-            multi_workspace: None,
         })
     }
 
@@ -505,34 +503,37 @@ impl<const B: usize> NormalEquations<B> {
         }
     }
 
-    /// Solves `(H + D) X = R` in place for the `ncols` right-hand sides stored column-major
-    /// in `rhs` (each of length [`NormalEquations::dim`]) with the last factor.
-    ///
-    /// Returns `false` if there is no valid factor, the sizes disagree or a result is not
-    /// finite.
-    pub fn solve_columns(&mut self, rhs: &mut [f64], ncols: usize) -> bool {
+    /// The double-precision supernodal factor, when one is valid.
+    pub fn supernodal_factor(&self) -> Option<SupernodalLltRef<'_, usize, f64>> {
+        if self.factored != Some(Precision::Double) {
+            return None;
+        }
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(symbolic) => {
+                Some(SupernodalLltRef::new(symbolic, &self.l_values))
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        }
+    }
+
+    /// Solves `Lᵀ x = z` in place with the double-precision factor (the backward half of a
+    /// solve). Returns `false` without a valid supernodal factor or for a non-finite result.
+    pub fn backward_solve(&mut self, z: &mut [f64]) -> bool {
         let n = self.dim();
-        if self.factored != Some(Precision::Double) || ncols == 0 || rhs.len() != n * ncols {
+        if z.len() != n {
             return false;
         }
-        if self
-            .multi_workspace
-            .as_ref()
-            .is_none_or(|(k, _)| *k < ncols)
-        {
-            let req = self.symbolic.solve_in_place_scratch::<f64>(ncols, Par::Seq);
-            let Ok(mem) = MemBuffer::try_new(req) else {
-                return false;
-            };
-            self.multi_workspace = Some((ncols, mem));
+        if self.factored != Some(Precision::Double) {
+            return false;
         }
-        let Some((_, mem)) = self.multi_workspace.as_mut() else {
+        let SymbolicCholeskyRaw::Supernodal(symbolic) = self.symbolic.raw() else {
             return false;
         };
-        let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.l_values);
-        let x = MatMut::from_column_major_slice_mut(rhs, n, ncols);
-        llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(mem));
-        rhs.iter().all(|v| v.is_finite())
+        // Disjoint fields: the factor is read while the workspace is written.
+        let llt = SupernodalLltRef::new(symbolic, &self.l_values);
+        let x = MatMut::from_column_major_slice_mut(z, n, 1);
+        llt.l_transpose_solve_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.workspace));
+        z.iter().all(|v| v.is_finite())
     }
 
     /// Block column of each variable (`None` for held variables), indexed by variable.
