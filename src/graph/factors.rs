@@ -214,6 +214,26 @@ impl Factor {
         (cost, blocks)
     }
 
+    /// Robust cost and the gradient blocks `(g_a, g_b)` of [`Factor::normal_blocks`] alone,
+    /// for steps that reuse an earlier factorisation of the Hessian.
+    pub(crate) fn gradient_blocks(
+        &self,
+        poses: &[Isometry3<f64>],
+        mu: f64,
+    ) -> (f64, Vector6<f64>, Vector6<f64>) {
+        let between = self.predicted(poses);
+        let residual = se3::log(&(self.measured_inv * between));
+        let s = self.mahalanobis2(&residual);
+        let cost = 0.5 * self.kernel.rho(s, mu);
+        let wr = self.information * residual * self.kernel.weight(s, mu);
+        let g = se3::right_jacobian_inverse(&residual).transpose() * wr;
+        if self.unary {
+            return (cost, g, Vector6::zeros());
+        }
+        let ad = se3::adjoint(&between.inverse());
+        (cost, -(ad.transpose() * g), g)
+    }
+
     /// Residual and Jacobians at the given estimate.
     pub(crate) fn linearize(&self, poses: &[Isometry3<f64>]) -> Linearization {
         let between = self.predicted(poses);

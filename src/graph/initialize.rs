@@ -10,7 +10,7 @@
 //! usually saves several of them.
 
 use super::factors::Factor;
-use super::structure::NormalEquations;
+use super::structure::{NormalEquations, Precision};
 use super::GraphError;
 use nalgebra::{Isometry3, Matrix3, Rotation3, SMatrix, Translation3, UnitQuaternion, Vector3};
 
@@ -61,7 +61,9 @@ pub(crate) fn chordal_initialize(
                 system.add_factor_gradient(i, &jac_a, &jac_b, &weight, &residual);
             }
         }
-        if k == 0 && !system.factorize_damped(|_, _| 0.0) {
+        // An initial estimate needs no more than a single-precision factor (its solves are
+        // refined once in double precision).
+        if k == 0 && !system.factorize_damped_in(Precision::Single, |_, _| 0.0) {
             return Ok(false);
         }
         let mut step = vec![0.0; system.dim()];

@@ -466,6 +466,24 @@ pub(crate) fn linearize(
     cost
 }
 
+/// Assembles only the gradient at `poses` (the Hessian keeps its last values); returns the
+/// cost (with μ).
+fn linearize_gradient(
+    factors: &[Factor],
+    poses: &[Isometry3<f64>],
+    system: &mut NormalEquations<6>,
+    mu: f64,
+) -> f64 {
+    system.clear_gradient();
+    let mut cost = 0.0;
+    for (i, f) in factors.iter().enumerate() {
+        let (c, ga, gb) = f.gradient_blocks(poses, mu);
+        cost += c;
+        system.add_gradient_blocks(i, &ga, &gb);
+    }
+    cost
+}
+
 fn total_cost(factors: &[Factor], poses: &[Isometry3<f64>], mu: f64) -> f64 {
     factors.iter().fold(0.0, |acc, f| acc + f.cost(poses, mu))
 }
@@ -506,8 +524,16 @@ fn levenberg_marquardt(
     let mut chords_left = 0;
     let mut last_decrease = f64::INFINITY;
     for _ in 0..config.max_iterations {
+        // A chord step needs only the new gradient; the Hessian is assembled when a
+        // factorisation follows.
+        let chord_possible =
+            chords_left > 0 && system.has_factor() && last_decrease < config.chord_regime;
         let t = Instant::now();
-        let cost = linearize(&graph.factors, &graph.poses, system, mu);
+        let cost = if chord_possible {
+            linearize_gradient(&graph.factors, &graph.poses, system, mu)
+        } else {
+            linearize(&graph.factors, &graph.poses, system, mu)
+        };
         state.profile.linearize_ms += ms_since(t);
         if cost <= 0.0 {
             return Ok(Termination::ZeroCost);
@@ -520,7 +546,7 @@ fn levenberg_marquardt(
         let mut rejected = 0;
         let mut chord = false;
         let mut new_cost = f64::NAN;
-        if chords_left > 0 && system.has_factor() && last_decrease < config.chord_regime {
+        if chord_possible {
             chords_left -= 1;
             let t = Instant::now();
             let ok = system.solve(&mut step);
@@ -536,6 +562,12 @@ fn levenberg_marquardt(
             }
         }
         if !chord {
+            if chord_possible {
+                // The chord step failed: assemble the Hessian at this estimate.
+                let t = Instant::now();
+                linearize(&graph.factors, &graph.poses, system, mu);
+                state.profile.linearize_ms += ms_since(t);
+            }
             new_cost = loop {
                 let lam = if gauss_newton { 0.0 } else { lambda };
                 let damping = config.damping;

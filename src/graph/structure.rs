@@ -325,6 +325,23 @@ impl<const B: usize> NormalEquations<B> {
         }
     }
 
+    /// Adds precomputed gradient blocks `g_a`, `g_b` of one factor (`g_b` is ignored for
+    /// unary factors; held variables are skipped).
+    pub fn add_gradient_blocks(
+        &mut self,
+        factor_index: usize,
+        ga: &SVector<f64, B>,
+        gb: &SVector<f64, B>,
+    ) {
+        let s = self.slots[factor_index];
+        if s.block_a != HELD {
+            self.add_gradient(s.block_a, ga);
+        }
+        if s.block_b != HELD {
+            self.add_gradient(s.block_b, gb);
+        }
+    }
+
     fn add_gradient(&mut self, block: usize, g: &SVector<f64, B>) {
         let dst = &mut self.gradient[B * block..B * block + B];
         for (d, v) in dst.iter_mut().zip(g.iter()) {
