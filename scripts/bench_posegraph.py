@@ -303,10 +303,14 @@ def main():
         f"of {len(robust_rows)} seeds within 5%, median "
         f"{100 * statistics.median(r['gnc']['position_rmse_m'] / c - 1 for r in robust_rows):+.1f}%, worst seed {100 * worst:+.1f}% — "
         + ("met" if worst <= 0.05 else "**not met on every seed**")
-        + f"; GNC matches the oracle within 0.1% on {sum(abs(r['gnc']['position_rmse_m'] / r['oracle']['position_rmse_m'] - 1) <= 1e-3 for r in robust_rows)} "
-        f"of {len(robust_rows)} seeds (worst {100 * worst_oracle:.2f}%): where it does, the gap to the clean solution is the "
-        "information of the replaced true closures, which no robust method can recover; where it does not, GNC "
-        "kept a wrong closure or dropped a true one.",
+        + f"; GNC matches the oracle within 0.5% on {sum(abs(r['gnc']['position_rmse_m'] / r['oracle']['position_rmse_m'] - 1) <= 5e-3 for r in robust_rows)} "
+        f"of {len(robust_rows)} seeds (worst {100 * worst_oracle:.2f}%; differences of a few hundredths of a percent are "
+        "the two solves' convergence tolerance). Where it does, the gap to the clean solution is the "
+        "information of the 245 replaced true closures, which no robust method can recover: the oracle "
+        f"itself is within 5% of the clean solution on {sum(r['oracle']['position_rmse_m'] / c - 1 <= 0.05 for r in robust_rows)} "
+        f"of {len(robust_rows)} seeds (median {100 * statistics.median(r['oracle']['position_rmse_m'] / c - 1 for r in robust_rows):+.1f}%; "
+        "losing a tenth of the loop closures' information raises the error by about √(1/0.9) − 1 ≈ 5.4% "
+        "on average), so the target as stated is out of reach for any estimator on a good share of seeds.",
         "",
         "### Incremental (synthetic 5,000-pose graph, 200 loop closures; `segloc graph bench-incremental`)",
         "",
@@ -315,8 +319,12 @@ def main():
     ]
     for key, label in (("odometry_append_ms", "append 1 pose + 1 odometry factor (consecutive)"),
                        ("loop_closure_append_ms", "append 1 pose + odometry + 1 loop closure (consecutive, batches included)"),
+                       ("loop_closure_incremental_ms", "… of which incremental updates on the last linearisation"),
+                       ("loop_closure_batch_ms", "… of which batch relinearisations"),
                        ("odometry_append_full_ms", "reference: append + forced full warm-started batch re-optimisation")):
-        s = inc[key]
+        s = inc.get(key)
+        if not s or s["median"] is None:
+            continue
         lines.append(f"| {label} | {s['median']:.3f} | {s['p90']:.3f} | {s['max']:.3f} |")
     gap = inc["loop_closure_cost_gap"]
     diff = inc["loop_closure_max_position_diff_m"]
@@ -329,7 +337,8 @@ def main():
         "optimum unchanged (zero gradient from the new factor) and needed no solve. Loop-closure appends: "
         f"{inc['loop_closure_incremental']} of {n_lc} were incremental updates on the last batch "
         "linearisation (old factors kept to second order, as in iSAM; a small dense problem over the "
-        "touched and new variables plus one solve with the batch factor), "
+        "touched and new variables, forward solves along the touched variables' elimination paths and one "
+        "backward solve with the batch factor), "
         f"{inc['loop_closure_batch']} were batch re-optimisations (first linearisation, more than 40 active "
         "variables, or an old variable moved more than 0.1 from its linearisation point). Accuracy against a "
         "full batch optimum of the same graph after every loop-closure append: relative cost gap median "

@@ -400,6 +400,10 @@ struct BenchOutput {
     loop_closure_append_ms: Summary,
     /// Loop-closure appends done incrementally on the last batch linearisation.
     loop_closure_incremental: usize,
+    /// Times of the incremental loop-closure appends alone.
+    loop_closure_incremental_ms: Summary,
+    /// Times of the loop-closure appends that relinearised by a batch.
+    loop_closure_batch_ms: Summary,
     /// Loop-closure appends done by a batch re-optimisation.
     loop_closure_batch: usize,
     /// Relative cost gap to the full batch optimum of the same graph after each append.
@@ -479,6 +483,7 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
     //    update, consecutively (batches included whenever the updater decides on one).
     let mut loop_ms = Vec::new();
     let mut methods = [0usize; 3];
+    let mut by_method: [Vec<f64>; 3] = Default::default();
     let mut gaps = Vec::new();
     let mut pose_diffs = Vec::new();
     for k in 0..a.appends {
@@ -490,8 +495,10 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         inc.graph_mut()
             .add_between(back, next, z, e.information, RobustKernel::None)?;
         let r = inc.update()?;
-        loop_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        loop_ms.push(ms);
         methods[r.method as usize] += 1;
+        by_method[r.method as usize].push(ms);
         next += 1;
         // Accuracy (untimed): the full batch optimum of the same graph.
         let mut full = inc.graph().clone();
@@ -530,6 +537,12 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         odometry_append_full_ms: summarise(odo_full_ms),
         loop_closure_append_ms: summarise(loop_ms),
         loop_closure_incremental: methods[UpdateMethod::Incremental as usize],
+        loop_closure_incremental_ms: summarise(std::mem::take(
+            &mut by_method[UpdateMethod::Incremental as usize],
+        )),
+        loop_closure_batch_ms: summarise(std::mem::take(
+            &mut by_method[UpdateMethod::Batch as usize],
+        )),
         loop_closure_batch: methods[UpdateMethod::Batch as usize],
         loop_closure_cost_gap: summarise(gaps),
         loop_closure_max_position_diff_m: summarise(pose_diffs),

@@ -407,39 +407,18 @@ impl<const B: usize> NormalEquations<B> {
         let symbolic =
             SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let stack = MemStack::new(&mut self.workspace);
-        // The only failure is a non-positive pivot: not positive definite.
         let ok = match precision {
             Precision::Double => {
-                let matrix = SparseColMatRef::new(symbolic, &self.damped);
-                self.symbolic
-                    .factorize_numeric_llt::<f64>(
-                        &mut self.l_values,
-                        matrix,
-                        Side::Lower,
-                        Default::default(),
-                        Par::Seq,
-                        stack,
-                        Default::default(),
-                    )
-                    .is_ok()
+                let matrix = SparseColMatRef::new(symbolic, &self.damped[..]);
+                factorize_llt(&self.symbolic, &mut self.l_values, matrix, stack)
             }
             Precision::Single => {
                 self.damped_f32.clear();
                 self.damped_f32
                     .extend(self.damped.iter().map(|&v| v as f32));
                 self.l_values_f32.resize(self.symbolic.len_val(), 0.0);
-                let matrix = SparseColMatRef::new(symbolic, &self.damped_f32);
-                self.symbolic
-                    .factorize_numeric_llt::<f32>(
-                        &mut self.l_values_f32,
-                        matrix,
-                        Side::Lower,
-                        Default::default(),
-                        Par::Seq,
-                        stack,
-                        Default::default(),
-                    )
-                    .is_ok()
+                let matrix = SparseColMatRef::new(symbolic, &self.damped_f32[..]);
+                factorize_llt(&self.symbolic, &mut self.l_values_f32, matrix, stack)
             }
         };
         self.factored = ok.then_some(precision);
@@ -573,6 +552,27 @@ impl<const B: usize> NormalEquations<B> {
     pub fn factor_nnz(&self) -> usize {
         self.l_values.len()
     }
+}
+
+/// Numeric supernodal `L Lᵀ` of the lower triangle `matrix` into `l_values`; `false` when a
+/// pivot is not positive (the matrix is not numerically positive definite).
+fn factorize_llt<T: faer::traits::ComplexField>(
+    symbolic: &SymbolicCholesky<usize>,
+    l_values: &mut [T],
+    matrix: SparseColMatRef<'_, usize, T>,
+    stack: &mut MemStack,
+) -> bool {
+    symbolic
+        .factorize_numeric_llt::<T>(
+            l_values,
+            matrix,
+            Side::Lower,
+            Default::default(),
+            Par::Seq,
+            stack,
+            Default::default(),
+        )
+        .is_ok()
 }
 
 /// Pattern of the transpose of an `n × n` CSC pattern (rows sorted in every column).
