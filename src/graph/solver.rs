@@ -120,9 +120,10 @@ pub struct SolverConfig {
     /// Factorise in single precision while the last step decreased the cost by more than
     /// this fraction (the first factorisation of a run counts as far from the optimum);
     /// closer to the optimum, in double precision. A single-precision factor costs about a
-    /// quarter less time (half the floating-point work and memory traffic); each of its
-    /// solves is refined once against the double-precision matrix, which makes the step
-    /// nearly as accurate, and a factorisation that fails is redone in double precision.
+    /// quarter less time (half the floating-point work and memory traffic). Once the cost
+    /// decreases by less than `chord_regime` per step, solves with such a factor are refined
+    /// once against the double-precision matrix, which makes the step nearly as accurate;
+    /// a factorisation that fails is redone in double precision.
     /// Costs, gradients and the convergence test stay in double precision throughout, so
     /// the optimum reached is the same. `inf` turns single precision off.
     pub single_precision_regime: f64,
@@ -585,7 +586,8 @@ fn levenberg_marquardt(
                 }
                 state.profile.factorize_ms += ms_since(t);
                 let t = Instant::now();
-                let ok = ok && system.solve(&mut step);
+                let near = last_decrease < config.chord_regime;
+                let ok = ok && system.solve_refined(&mut step, near);
                 state.profile.solve_ms += ms_since(t);
                 if !ok && gauss_newton {
                     return Ok(Termination::Singular);

@@ -434,6 +434,12 @@ impl<const B: usize> NormalEquations<B> {
     ///
     /// Returns `false` if there is no valid factor or the step is not finite.
     pub fn solve(&mut self, step: &mut [f64]) -> bool {
+        self.solve_refined(step, true)
+    }
+
+    /// Like [`NormalEquations::solve`], refining a single-precision solve only if `refine`:
+    /// far from an optimum an unrefined step (relative error about `κ · 10⁻⁷`) is as good.
+    pub fn solve_refined(&mut self, step: &mut [f64], refine: bool) -> bool {
         let Some(precision) = self.factored else {
             return false;
         };
@@ -457,11 +463,15 @@ impl<const B: usize> NormalEquations<B> {
                 x.clear();
                 x.extend(step.iter().map(|&v| v as f32));
                 self.solve_f32(&mut x);
-                // One refinement: r = b − A x in double precision, then x += A⁻¹ r.
                 let b: Vec<f64> = step.to_vec();
                 for (s, &v) in step.iter_mut().zip(&x) {
                     *s = f64::from(v);
                 }
+                if !refine {
+                    self.scratch_f32 = x;
+                    return step.iter().all(|v| v.is_finite());
+                }
+                // One refinement: r = b − A x in double precision, then x += A⁻¹ r.
                 let mut residual = b;
                 self.sub_damped_times(step, &mut residual);
                 x.clear();
