@@ -318,7 +318,6 @@ pub(crate) fn optimize(
 ) -> Result<OptimizationReport, GraphError> {
     config.validate()?;
     let start = Instant::now();
-    let version = graph.structure_version;
     let mut state = RunState {
         start,
         log: Vec::new(),
@@ -327,27 +326,9 @@ pub(crate) fn optimize(
         single_precision_factorizations: 0,
         profile: Profile::default(),
     };
-    let cached = match graph.cache.take() {
-        Some(c) if c.version == version => Some(c),
-        _ => None,
-    };
-    let analysis_reused = cached.is_some();
-    let mut cache = match cached {
-        Some(c) => c,
-        None => {
-            let t = Instant::now();
-            let (components, held) =
-                components::analyse(graph.keys(), graph.fixed_flags(), &graph.factors);
-            let system = NormalEquations::<6>::analyse(&held, &graph.factors)?;
-            state.profile.analysis_ms = ms_since(t);
-            StructureCache {
-                version,
-                components,
-                held,
-                system,
-            }
-        }
-    };
+    let (mut cache, analysis_ms) = take_analysis(graph)?;
+    let analysis_reused = analysis_ms.is_none();
+    state.profile.analysis_ms = analysis_ms.unwrap_or(0.0);
     let initial_cost = graph.cost();
     if config.initialization == Initialization::Chordal {
         let t = Instant::now();
@@ -383,6 +364,26 @@ pub(crate) fn optimize(
         profile: state.profile,
         log: state.log,
     })
+}
+
+/// Takes the structure analysis out of `graph`: the cached one if it is for the current
+/// structure, else a new one (components, gauge, ordering, symbolic factorisation) with the
+/// time it took.
+fn take_analysis(graph: &mut PoseGraph) -> Result<(StructureCache, Option<f64>), GraphError> {
+    let version = graph.structure_version;
+    if let Some(cache) = graph.cache.take().filter(|c| c.version == version) {
+        return Ok((cache, None));
+    }
+    let t = Instant::now();
+    let (components, held) = components::analyse(graph.keys(), graph.fixed_flags(), &graph.factors);
+    let system = NormalEquations::<6>::analyse(&held, &graph.factors)?;
+    let cache = StructureCache {
+        version,
+        components,
+        held,
+        system,
+    };
+    Ok((cache, Some(ms_since(t))))
 }
 
 fn ms_since(t: Instant) -> f64 {
