@@ -27,6 +27,9 @@ pub struct LocalizedSession {
     pub attempts: Vec<Attempt>,
     /// The odometry's biases as estimated at the end of the session.
     pub odometry_bias: OdometryBias,
+    /// Position RMSE of the pose graph's poses (before the mission's terrain height
+    /// alignment changes `poses`), metres.
+    pub rmse_graph_m: f64,
 }
 
 /// Run session 2 from `start`, believing it starts at `guess`, relocalizing against
@@ -118,11 +121,13 @@ pub fn localize_session(
         graph.calibrate(config, config.calibration_rounds)?;
     }
     let poses = graph.poses_in_prior();
+    let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(LocalizedSession {
         log,
         poses,
         attempts,
         odometry_bias: graph.bias,
+        rmse_graph_m,
     })
 }
 

@@ -32,6 +32,9 @@ pub struct MappedSession {
     pub attempts: Vec<Attempt>,
     /// The odometry's biases as estimated at the end of the session.
     pub odometry_bias: OdometryBias,
+    /// Position RMSE of the pose graph's poses (before the mission's terrain height
+    /// alignment changes `poses`), metres.
+    pub rmse_graph_m: f64,
 }
 
 /// Run session 1 from `start` for the mission's duration and build its map.
@@ -80,12 +83,14 @@ pub fn map_session(
     let poses = graph.poses_in_prior();
     let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
     let map = fuse_detections(&set, &config.fusion);
+    let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(MappedSession {
         log,
         poses,
         map,
         attempts,
         odometry_bias: graph.bias,
+        rmse_graph_m,
     })
 }
 

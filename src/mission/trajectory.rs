@@ -80,6 +80,21 @@ pub struct TrajectoryGraph {
     steps: Vec<OdometryStep>,
     /// Relocalizations and loop closures, in the order added.
     extra: Vec<ExtraFactor>,
+    /// Gravity factors: frame, the IMU's attitude, information.
+    gravity: Vec<(usize, Isometry3<f64>, Matrix6<f64>)>,
+}
+
+/// Information of a gravity factor on a pose whose measured attitude is `attitude`: only
+/// the two rotations that tilt the body's up axis (`u`, body frame) are constrained,
+/// `(I − u uᵀ) / σ²`, so that a yaw difference between the factor's target and the
+/// estimate (a rotation about `u`) costs nothing; the rest is regularised to 1e-6.
+pub fn gravity_information(attitude: &Isometry3<f64>, sigma_rad: f64) -> Matrix6<f64> {
+    let u = attitude.rotation.inverse() * nalgebra::Vector3::z();
+    let tilt = (nalgebra::Matrix3::identity() - u * u.transpose()) / (sigma_rad * sigma_rad);
+    let mut info = Matrix6::identity() * 1e-6;
+    let mut block = info.fixed_view_mut::<3, 3>(0, 0);
+    block += tilt;
+    info
 }
 
 impl TrajectoryGraph {
@@ -92,6 +107,7 @@ impl TrajectoryGraph {
             bias: OdometryBias::default(),
             steps: Vec::new(),
             extra: Vec::new(),
+            gravity: Vec::new(),
         }
     }
 
@@ -124,6 +140,14 @@ impl TrajectoryGraph {
                 self.graph
                     .add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
                 self.steps.push(step);
+                if config.gravity_sigma_rad > 0.0 {
+                    // the logged attitude's roll and pitch are the IMU's gravity direction
+                    let information =
+                        gravity_information(&t.session_from_rover, config.gravity_sigma_rad);
+                    self.graph
+                        .add_prior(k as u64, t.session_from_rover, information)?;
+                    self.gravity.push((k, t.session_from_rover, information));
+                }
             }
             self.frames += 1;
         }
@@ -285,6 +309,9 @@ impl TrajectoryGraph {
             let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
             let z = self.bias.correct(step);
             graph.add_between(i as u64, i as u64 + 1, z, info, RobustKernel::None)?;
+        }
+        for (k, attitude, information) in &self.gravity {
+            graph.add_prior(*k as u64, *attitude, *information)?;
         }
         for f in &self.extra {
             match f {
@@ -511,6 +538,27 @@ pub fn landmark_positions(
 mod tests {
     use super::*;
     use crate::mission::MissionConfig;
+
+    #[test]
+    fn gravity_factor_costs_tilt_not_yaw() {
+        use nalgebra::{UnitQuaternion, Vector3};
+        let attitude = Isometry3::from_parts(
+            Default::default(),
+            UnitQuaternion::from_euler_angles(0.1, -0.15, 0.7),
+        );
+        let info = gravity_information(&attitude, 0.002);
+        let cost = |r: Vector3<f64>| {
+            let mut v = nalgebra::Vector6::zeros();
+            v.fixed_rows_mut::<3>(0).copy_from(&r);
+            (v.transpose() * info * v)[0]
+        };
+        // a yaw change is a rotation about the body's up axis: free
+        let up = attitude.rotation.inverse() * Vector3::z();
+        assert!(cost(up * 0.05) < 1e-6);
+        // a tilt of 0.002 rad costs one σ²
+        let tilt = up.cross(&Vector3::x()).normalize() * 0.002;
+        assert!((cost(tilt) - 1.0).abs() < 1e-3);
+    }
 
     #[test]
     fn odometry_weight_falls_with_distance_and_turning() {
