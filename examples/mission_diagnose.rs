@@ -133,6 +133,42 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    if std::env::var("COLLISIONS").is_ok() {
+        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
+            let mut last = None;
+            for t in log.collision_ticks() {
+                let Some(segloc::sim::session::Obstruction::Rock(i)) = t.collision else {
+                    eprintln!("session {n} t {:.1} lander", t.time_s);
+                    continue;
+                };
+                if last == Some(i) {
+                    continue;
+                }
+                last = Some(i);
+                let rock = &moon.rocks()[i];
+                let ground = moon.height_at(rock.center.x, rock.center.y);
+                let seen: Vec<String> = log
+                    .frames
+                    .iter()
+                    .filter(|f| f.time_s <= t.time_s)
+                    .flat_map(|f| f.boulders.iter().map(move |b| (f, b)))
+                    .filter(|(_, b)| b.rock == Some(i))
+                    .map(|(f, b)| {
+                        format!(
+                            "{:.0}s r{:.3} d{:.1}",
+                            f.time_s,
+                            b.radius_m,
+                            b.p_rover.coords.norm()
+                        )
+                    })
+                    .collect();
+                eprintln!(
+                    "session {n} t {:.1} rock {i} r {:.3} top above ground {:.3} mode {:?} seen {:?}",
+                    t.time_s, rock.radius_m, rock.center.z + rock.radius_m - ground, t.mode, seen
+                );
+            }
+        }
+    }
     let truth = moon.ground_truth_grid();
     let t1 = true_poses(&s1.log);
     let t2 = true_poses(&s2.log);

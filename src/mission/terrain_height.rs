@@ -292,3 +292,47 @@ pub fn apply(poses: &[Isometry3<f64>], dz: &[f64]) -> Vec<Isometry3<f64>> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::moon::{Moon, MoonConfig};
+    use crate::sim::session::{run_session, SessionConfig};
+
+    #[test]
+    fn finds_a_height_offset_between_two_passes_over_the_same_ground() {
+        let moon = Moon::generate(&MoonConfig::default(), 3).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let config = SessionConfig {
+            duration_s: 40.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        let log = run_session(&moon, &config, 1).unwrap();
+        let truth: Vec<Isometry3<f64>> = log
+            .frames
+            .iter()
+            .map(|f| log.ticks[f.tick].world_from_rover)
+            .collect();
+        // the same drive seen as a second session placed 5 cm too high
+        let high = apply(&truth, &vec![0.05; truth.len()]);
+        let dz = height_corrections(
+            &[(&log, &truth), (&log, &high)],
+            &TerrainHeightConfig::default(),
+        );
+        assert_eq!(dz.len(), 2);
+        assert!(dz[0].iter().all(|d| d.abs() < 0.005), "{:?}", dz[0]);
+        assert!(
+            dz[1].iter().all(|d| (d + 0.05).abs() < 0.005),
+            "{:?}",
+            dz[1]
+        );
+        // disabled: nothing moves
+        let off = TerrainHeightConfig {
+            enabled: false,
+            ..TerrainHeightConfig::default()
+        };
+        let none = height_corrections(&[(&log, &truth)], &off);
+        assert!(none[0].iter().all(|d| *d == 0.0));
+    }
+}
