@@ -133,6 +133,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    if std::env::var("NAV").is_ok() {
+        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
+            eprintln!(
+                "session {n} (reached, skipped, backups) {:?}",
+                log.navigation_counts
+            );
+            let mut last = None;
+            for t in log.ticks.iter().step_by(20) {
+                if last != Some(t.mode) || t.time_s % 20.0 < 1e-9 {
+                    let p = t.world_from_rover.translation;
+                    eprintln!(
+                        "  {n} t {:.0} {:?} at ({:.1}, {:.1}) cmd {:.2} {:.2}",
+                        t.time_s, t.mode, p.x, p.y, t.command.speed_mps, t.command.yaw_rate_rps
+                    );
+                    last = Some(t.mode);
+                }
+            }
+        }
+    }
     if std::env::var("COLLISIONS").is_ok() {
         for (n, log) in [(1, &s1.log), (2, &s2.log)] {
             let mut last = None;

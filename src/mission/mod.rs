@@ -181,7 +181,7 @@ impl Default for MissionConfig {
             seconds_per_session: 600.0,
             moon: MoonConfig::default(),
             session: coverage_session(),
-            session_2: Some(SessionConfig::default()),
+            session_2: Some(spiral_session()),
             seconds_session_2: Some(300.0),
             start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
             start_2: [-4.5, 0.0, -std::f64::consts::FRAC_PI_2],
@@ -254,6 +254,18 @@ fn coverage_session() -> SessionConfig {
         ..SessionConfig::default()
     };
     session.navigator.arcs.speed_mps = 0.45;
+    session.navigator.arcs.min_horizon_s = MISSION_MIN_ARC_HORIZON_S;
+    session
+}
+
+/// Shortest arc horizon of the mission's planner (seconds, see
+/// [`crate::planning::arc_planner::ArcPlannerConfig::min_horizon_s`]).
+const MISSION_MIN_ARC_HORIZON_S: f64 = 2.0;
+
+/// Session settings of session 2 by default: the spiral around the lander.
+fn spiral_session() -> SessionConfig {
+    let mut session = SessionConfig::default();
+    session.navigator.arcs.min_horizon_s = MISSION_MIN_ARC_HORIZON_S;
     session
 }
 
