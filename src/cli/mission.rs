@@ -34,8 +34,9 @@ pub struct MissionArgs {
     /// Show a progress bar on stderr.
     #[arg(long)]
     pub progress: bool,
-    /// Start from the coverage mission (`MissionConfig::lac_coverage`: 600 s per session
-    /// on the LAC coverage loops) instead of the defaults, when no `--mission-config`.
+    /// Start from the coverage mission (`MissionConfig::lac_coverage`: both sessions 600 s
+    /// on the LAC coverage loops; by default only session 1 is) instead of the defaults,
+    /// when no `--mission-config`.
     #[arg(long)]
     pub coverage: bool,
 }
