@@ -10,6 +10,7 @@
 //!   the planner;
 //! - [`trajectory`]: the per-session pose graph and trajectory error;
 //! - [`lander_factor`]: absolute pose factors from the points measured on the lander;
+//! - [`gravity`]: roll and pitch factors from the IMU's gravity direction;
 //! - [`terrain_height`]: the trajectories' heights aligned on the ground both sessions saw;
 //! - [`maps`]: height and rock maps, LAC score;
 //! - [`report`]: the JSON report and the pictures;
@@ -24,6 +25,7 @@
 //! ```
 
 pub mod fix_gate;
+pub mod gravity;
 pub mod lander_factor;
 pub mod lost_session;
 pub mod mapping_session;
