@@ -17,7 +17,7 @@ fn short() -> MissionConfig {
 
 #[test]
 fn global_factors_reduce_session_two_error_and_no_wrong_relocalization() {
-    // seed 3: no wrong acceptance here; seeds 2, 4 and 9 do have some (BENCHMARKS.md)
+    // seed 3 (no wrong acceptance in seeds 1–20 at the defaults, BENCHMARKS.md)
     let out = run_mission(3, &short()).unwrap();
     let r = &out.report;
     assert_eq!(r.sessions.len(), 2);

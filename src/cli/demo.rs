@@ -23,7 +23,8 @@ pub struct DemoArgs {
     /// Mission configuration (TOML, as printed by `segloc config print --mission`).
     #[arg(long, value_name = "FILE")]
     pub mission_config: Option<PathBuf>,
-    /// Run the coverage mission (600 s per session on the LAC coverage loops).
+    /// Run the coverage mission (both sessions 600 s on the LAC coverage loops; by default
+    /// only session 1 is).
     #[arg(long)]
     pub coverage: bool,
 }

@@ -34,8 +34,9 @@ pub struct MissionArgs {
     /// Show a progress bar on stderr.
     #[arg(long)]
     pub progress: bool,
-    /// Start from the coverage mission (`MissionConfig::lac_coverage`: 600 s per session
-    /// on the LAC coverage loops) instead of the defaults, when no `--mission-config`.
+    /// Start from the coverage mission (`MissionConfig::lac_coverage`: both sessions 600 s
+    /// on the LAC coverage loops; by default only session 1 is) instead of the defaults,
+    /// when no `--mission-config`.
     #[arg(long)]
     pub coverage: bool,
 }
@@ -48,7 +49,7 @@ pub fn run(
 ) -> Result<i32> {
     let config = mission_config(args, relocalize, global_config_given)?;
     let output = if args.progress {
-        let bar = Bar::new(config.seconds_per_session);
+        let bar = Bar::new(config.session_seconds());
         let output = run_mission_with_progress(args.seed, &config, &bar);
         bar.bar.finish_and_clear();
         output?
@@ -90,6 +91,12 @@ fn mission_config(
     }
     Ok(MissionConfig {
         seconds_per_session: seconds,
+        // `--seconds` sets both sessions
+        seconds_session_2: if args.seconds.is_some() {
+            None
+        } else {
+            base.seconds_session_2
+        },
         relocalize: if global_config_given {
             relocalize.clone()
         } else {
@@ -104,13 +111,16 @@ fn mission_config(
 struct Bar {
     bar: ProgressBar,
     session: Cell<usize>,
+    /// Simulated seconds of session 1 (where session 2 starts on the bar).
+    first_s: f64,
 }
 
 impl Bar {
     const STEPS_PER_S: f64 = 10.0;
 
-    fn new(seconds_per_session: f64) -> Self {
-        let bar = ProgressBar::new((2.0 * seconds_per_session * Self::STEPS_PER_S) as u64);
+    fn new(session_seconds: [f64; 2]) -> Self {
+        let total_s: f64 = session_seconds.iter().sum();
+        let bar = ProgressBar::new((total_s * Self::STEPS_PER_S) as u64);
         bar.set_style(
             ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {msg}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -118,6 +128,7 @@ impl Bar {
         Bar {
             bar,
             session: Cell::new(0),
+            first_s: session_seconds[0],
         }
     }
 }
@@ -126,11 +137,9 @@ impl MissionProgress for Bar {
     fn update(&self, stage: MissionStage) {
         match stage {
             MissionStage::Driving {
-                session,
-                time_s,
-                duration_s,
+                session, time_s, ..
             } => {
-                let done_s = (session.saturating_sub(1)) as f64 * duration_s + time_s;
+                let done_s = if session > 1 { self.first_s } else { 0.0 } + time_s;
                 self.bar.set_position((done_s * Self::STEPS_PER_S) as u64);
                 if self.session.replace(session) != session {
                     self.bar.set_message(match session {

@@ -27,6 +27,9 @@ pub struct LocalizedSession {
     pub attempts: Vec<Attempt>,
     /// The odometry's biases as estimated at the end of the session.
     pub odometry_bias: OdometryBias,
+    /// Position RMSE of the pose graph's poses (before the mission's terrain height
+    /// alignment changes `poses`), metres.
+    pub rmse_graph_m: f64,
 }
 
 /// Run session 2 from `start`, believing it starts at `guess`, relocalizing against
@@ -41,10 +44,10 @@ pub fn localize_session(
     progress: &dyn MissionProgress,
 ) -> Result<LocalizedSession, MissionError> {
     let session = SessionConfig {
-        duration_s: config.seconds_per_session,
+        duration_s: config.session_seconds()[1],
         start,
         initial_guess: Some(guess),
-        ..config.session.clone()
+        ..config.session_2().clone()
     };
     let mut sim = SessionSim::new(moon, &session, seed)?;
     let mut graph = TrajectoryGraph::new();
@@ -118,11 +121,13 @@ pub fn localize_session(
         graph.calibrate(config, config.calibration_rounds)?;
     }
     let poses = graph.poses_in_prior();
+    let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(LocalizedSession {
         log,
         poses,
         attempts,
         odometry_bias: graph.bias,
+        rmse_graph_m,
     })
 }
 
@@ -182,10 +187,18 @@ impl Gate {
         if let Some(p) = self.pending.take() {
             let carried = p.prior_from_rover * pose(p.k).inverse() * pose(c.k);
             let (sigma_m, sigma_yaw) = graph.odometry_sigma(p.k, c.k, config);
+            // before the first fix the odometry between the two is still uncalibrated (its
+            // yaw-rate error bends both submaps alike while the rover turns on the spot), so
+            // the first pair must agree more tightly
+            let n_sigma = if self.last_fix_frame.is_none() {
+                config.gate_bootstrap_sigmas
+            } else {
+                3.0
+            };
             if agrees(
                 &carried,
                 &c.prior_from_rover,
-                &tolerance.widened(sigma_m, sigma_yaw, 3.0),
+                &tolerance.widened(sigma_m, sigma_yaw, n_sigma),
             ) {
                 return vec![p, c];
             }

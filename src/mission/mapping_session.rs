@@ -2,6 +2,7 @@
 //! relocalizes against (in the optimised session frame, which is the world frame up to
 //! drift since the start is known).
 
+use super::fix_gate::{agrees, Tolerance};
 use super::lander_factor::add_lander_factors;
 use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
@@ -32,6 +33,9 @@ pub struct MappedSession {
     pub attempts: Vec<Attempt>,
     /// The odometry's biases as estimated at the end of the session.
     pub odometry_bias: OdometryBias,
+    /// Position RMSE of the pose graph's poses (before the mission's terrain height
+    /// alignment changes `poses`), metres.
+    pub rmse_graph_m: f64,
 }
 
 /// Run session 1 from `start` for the mission's duration and build its map.
@@ -80,12 +84,14 @@ pub fn map_session(
     let poses = graph.poses_in_prior();
     let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
     let map = fuse_detections(&set, &config.fusion);
+    let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(MappedSession {
         log,
         poses,
         map,
         attempts,
         odometry_bias: graph.bias,
+        rmse_graph_m,
     })
 }
 
@@ -105,6 +111,7 @@ fn loop_closures(
     let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
     let start_end = start_frames(log, config);
     let mut attempts = Vec::new();
+    let mut gate = ClosureGate::default();
     let mut t = config.relocalize_period_s;
     let end = log.frames.last().map_or(0.0, |f| f.time_s);
     while t <= end + 1e-9 {
@@ -127,16 +134,122 @@ fn loop_closures(
                 fixed_frame: Some(0),
                 min_observations: 1,
             };
-            attempts.push(close_loop(log, config, graph, &reference, first..k + 1)?);
+            let (record, closure) = close_loop(log, config, graph, &reference, first..k + 1)?;
+            gate.submit(record, closure, &mut attempts, graph, config)?;
         }
         let reference = Reference {
             frames: 0..old_end,
             fixed_frame: None,
             min_observations: config.fusion.min_observations,
         };
-        attempts.push(close_loop(log, config, graph, &reference, first..k + 1)?);
+        let (record, closure) = close_loop(log, config, graph, &reference, first..k + 1)?;
+        gate.submit(record, closure, &mut attempts, graph, config)?;
     }
     Ok(attempts)
+}
+
+/// A loop closure the relocalizer accepted, before the gate has confirmed it.
+struct Closure {
+    /// The earlier frame.
+    j: usize,
+    /// The recent frame.
+    k: usize,
+    /// Measured pose of `k` in `j`.
+    j_from_k: Isometry3<f64>,
+    /// Information (right perturbation of `j_from_k`).
+    information: nalgebra::Matrix6<f64>,
+    /// Index of its record among the attempts.
+    attempt: usize,
+}
+
+/// Session 1's consistency gate, as session 2's ([`super::fix_gate`]): a closure enters the
+/// graph when the pose it implies for its recent frame agrees with the graph's estimate
+/// (a small correction), or with the one implied by the previous closure carried over by
+/// the graph's relative motion (two independent submaps asking for the same correction).
+/// Single closures off by 1–2° of yaw (few inliers, a submap bent while turning) otherwise
+/// entered the graph unchecked (seeds 13 and 17).
+#[derive(Default)]
+struct ClosureGate {
+    pending: Option<Closure>,
+}
+
+impl ClosureGate {
+    /// Record `record` and, if the relocalizer accepted (`closure`), gate it; admitted
+    /// closures are added to the graph and the graph re-optimised.
+    fn submit(
+        &mut self,
+        record: Attempt,
+        closure: Option<(usize, usize, Isometry3<f64>, nalgebra::Matrix6<f64>)>,
+        attempts: &mut Vec<Attempt>,
+        graph: &mut TrajectoryGraph,
+        config: &MissionConfig,
+    ) -> Result<(), MissionError> {
+        attempts.push(record);
+        let Some((j, k, j_from_k, information)) = closure else {
+            return Ok(());
+        };
+        let c = Closure {
+            j,
+            k,
+            j_from_k,
+            information,
+            attempt: attempts.len() - 1,
+        };
+        let admitted = if config.gate_relocalizations {
+            self.admit(c, graph, config)
+        } else {
+            vec![c]
+        };
+        if admitted.is_empty() {
+            return Ok(());
+        }
+        let kernel = RobustKernel::Cauchy {
+            c: config.robust_scale,
+        };
+        for c in admitted {
+            if let Some(record) = attempts.get_mut(c.attempt) {
+                record.accepted = true;
+                record.refusal = None;
+            }
+            graph.add_loop_closure(c.j, c.k, c.j_from_k, c.information, kernel)?;
+        }
+        graph.optimize()?;
+        if config.calibrate_odometry {
+            graph.calibrate(config, config.calibration_rounds)?;
+        }
+        Ok(())
+    }
+
+    fn admit(
+        &mut self,
+        c: Closure,
+        graph: &TrajectoryGraph,
+        config: &MissionConfig,
+    ) -> Vec<Closure> {
+        let tolerance = Tolerance {
+            position_m: config.gate_position_m,
+            yaw_rad: config.gate_yaw_deg.to_radians(),
+        };
+        let pose = |k: usize| {
+            graph
+                .graph
+                .pose(k as u64)
+                .unwrap_or_else(Isometry3::identity)
+        };
+        let implied = |c: &Closure| pose(c.j) * c.j_from_k;
+        if agrees(&pose(c.k), &implied(&c), &tolerance) {
+            self.pending = None;
+            return vec![c];
+        }
+        if let Some(p) = self.pending.take() {
+            let carried = implied(&p) * pose(p.k).inverse() * pose(c.k);
+            if agrees(&carried, &implied(&c), &tolerance) {
+                return vec![p, c];
+            }
+        }
+        self.pending = Some(c);
+        Vec::new()
+    }
 }
 
 /// The frames taken before the rover moved more than `start_map_max_motion_m` or turned more
@@ -173,7 +286,7 @@ fn close_loop(
     graph: &mut TrajectoryGraph,
     reference: &Reference,
     recent: std::ops::Range<usize>,
-) -> Result<Attempt, MissionError> {
+) -> Result<ClosureResult, MissionError> {
     let odometry = graph.poses_in_prior();
     let fusion = FusionConfig {
         min_observations: reference.min_observations,
@@ -205,7 +318,7 @@ fn close_loop(
         Ok(r) => r,
         Err(e) => {
             record.refusal = Some(format!("error: {e}"));
-            return Ok(record);
+            return Ok((record, None));
         }
     };
     record.inliers = reloc.inliers.len();
@@ -216,7 +329,7 @@ fn close_loop(
                 .as_ref()
                 .map_or_else(|| "refused".to_string(), |r| r.to_string()),
         );
-        return Ok(record);
+        return Ok((record, None));
     };
     // the earlier frame nearest the matched landmarks of the old map, and the recent frame
     // nearest the matched landmarks of the submap (least drift relative to them)
@@ -235,7 +348,7 @@ fn close_loop(
         error.translation.vector.norm(),
         error.rotation.angle().to_degrees(),
     );
-    record.accepted = true;
+    record.refusal = Some("not confirmed by the pose graph or the next loop closure".into());
     record.error_m = Some(error_m);
     record.error_deg = Some(error_deg);
     record.error_yaw_deg = Some(error.rotation.euler_angles().2.to_degrees());
@@ -243,13 +356,12 @@ fn close_loop(
     let ad = se3::adjoint(&odometry[k]);
     let information =
         ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
-    let kernel = RobustKernel::Cauchy {
-        c: config.robust_scale,
-    };
-    graph.add_loop_closure(j, k, j_from_k, information, kernel)?;
-    graph.optimize()?;
-    if config.calibrate_odometry {
-        graph.calibrate(config, config.calibration_rounds)?;
-    }
-    Ok(record)
+    Ok((record, Some((j, k, j_from_k, information))))
 }
+
+/// A loop-closure attempt's record and, when the relocalizer accepted, the closure
+/// (earlier frame, recent frame, `j_from_k`, information).
+type ClosureResult = (
+    Attempt,
+    Option<(usize, usize, Isometry3<f64>, nalgebra::Matrix6<f64>)>,
+);

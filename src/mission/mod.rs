@@ -10,6 +10,8 @@
 //!   the planner;
 //! - [`trajectory`]: the per-session pose graph and trajectory error;
 //! - [`lander_factor`]: absolute pose factors from the points measured on the lander;
+//! - [`gravity`]: roll and pitch factors from the IMU's gravity direction;
+//! - [`terrain_height`]: the trajectories' heights aligned on the ground both sessions saw;
 //! - [`maps`]: height and rock maps, LAC score;
 //! - [`report`]: the JSON report and the pictures;
 //! - [`trace`]: the mission frame by frame for playback, and with the cargo feature
@@ -23,6 +25,7 @@
 //! ```
 
 pub mod fix_gate;
+pub mod gravity;
 pub mod lander_factor;
 pub mod lost_session;
 pub mod mapping_session;
@@ -32,6 +35,7 @@ pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod recording;
 pub mod report;
+pub mod terrain_height;
 pub mod trace;
 pub mod trajectory;
 
@@ -81,6 +85,10 @@ pub struct MissionConfig {
     pub moon: MoonConfig,
     /// Session parameters (start and duration are set by the mission).
     pub session: SessionConfig,
+    /// Session 2's parameters when they differ from session 1's (`None`: the same).
+    pub session_2: Option<SessionConfig>,
+    /// Session 2's simulated seconds when they differ from session 1's (`None`: the same).
+    pub seconds_session_2: Option<f64>,
     /// Session 1's start, world frame [x, y, yaw] (moved to the nearest clear ground).
     pub start_1: [f64; 3],
     /// Session 2's true start, world frame [x, y, yaw] (moved to the nearest clear ground).
@@ -116,6 +124,10 @@ pub struct MissionConfig {
     pub vo_yaw_sigma_rad_per_m: f64,
     /// Odometry yaw noise per radian turned, 1 σ (graph weights).
     pub vo_yaw_sigma_per_rad_turned: f64,
+    /// Gravity factor on every frame's roll and pitch (the IMU's gravity direction), 1 σ,
+    /// radians; 0 leaves the tilt to the odometry's relative factors alone (it then drifts:
+    /// 0.3–0.7° rms over a 600 s session, 3–5 cm of height at 4 m range).
+    pub gravity_sigma_rad: f64,
     /// Estimate the odometry's biases (scale, yaw drift per metre, yaw-rate scale) from the
     /// fixes and correct the odometry factors and submaps with them.
     pub calibrate_odometry: bool,
@@ -136,6 +148,12 @@ pub struct MissionConfig {
     pub gate_position_m: f64,
     /// Gate: largest yaw disagreement (degrees), before the odometry's uncertainty.
     pub gate_yaw_deg: f64,
+    /// Gate: the odometry's uncertainty (in σ) added to the tolerance when the first two
+    /// results confirm each other (no fix in the graph yet); 3 σ afterwards. The first
+    /// submaps are taken while the rover turns on the spot with the odometry's yaw-rate
+    /// error not yet calibrated, which bends consecutive submaps alike by 1–2°, so the
+    /// first pair must agree within the bare tolerance.
+    pub gate_bootstrap_sigmas: f64,
     /// An accepted relocalization off by more than this (m) counts as wrong.
     pub wrong_translation_m: f64,
     /// An accepted relocalization off by more than this (degrees) counts as wrong.
@@ -152,14 +170,21 @@ pub struct MissionConfig {
     pub relocalize: RelocalizeConfig,
     /// Rock map from fused boulders.
     pub rock_grid: RockGridConfig,
+    /// Terrain-relative height alignment of both sessions' poses before the maps.
+    pub terrain_height: terrain_height::TerrainHeightConfig,
 }
 
 impl Default for MissionConfig {
+    /// Session 1 maps the site on the LAC coverage loops for 600 s; session 2 drives the
+    /// spiral around the lander for 300 s, where session 1's map is densest and most
+    /// accurate (BENCHMARKS.md, mission block).
     fn default() -> Self {
         Self {
-            seconds_per_session: 300.0,
+            seconds_per_session: 600.0,
             moon: MoonConfig::default(),
-            session: SessionConfig::default(),
+            session: coverage_session(),
+            session_2: Some(spiral_session()),
+            seconds_session_2: Some(300.0),
             start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
             start_2: [-4.5, 0.0, -std::f64::consts::FRAC_PI_2],
             guess_error_2: [0.8, -0.6, 0.25],
@@ -176,9 +201,11 @@ impl Default for MissionConfig {
             vo_translation_sigma_m_per_m: 0.008,
             vo_yaw_sigma_rad_per_m: 0.0015,
             vo_yaw_sigma_per_rad_turned: 0.003,
+            gravity_sigma_rad: 0.002,
             gate_relocalizations: true,
             gate_position_m: 0.08,
             gate_yaw_deg: 0.5,
+            gate_bootstrap_sigmas: 0.0,
             calibrate_odometry: true,
             calibration_rounds: 2,
             vo_bias_prior_scale: 0.01,
@@ -191,20 +218,32 @@ impl Default for MissionConfig {
             fusion: FusionConfig::default(),
             relocalize: RelocalizeConfig::default(),
             rock_grid: RockGridConfig::default(),
+            terrain_height: terrain_height::TerrainHeightConfig::default(),
         }
     }
 }
 
 impl MissionConfig {
-    /// The coverage mission: 600 s per session driving the LAC coverage loops (around the
-    /// lander, then at 8 m and 12.5 m) at 0.45 m/s. It maps nearly the whole site (geometric
-    /// score median 288 against 218 by default over seeds 1–10), but session 1's map drifts
-    /// by up to 13 cm on the outer loops, which session 2 then inherits (BENCHMARKS.md,
-    /// coverage block) — hence not the default yet.
+    /// Both sessions on the LAC coverage loops (around the lander, then at 8 m and 12.5 m)
+    /// at 0.45 m/s for 600 s each. It maps a little more than the default (session 2 adds
+    /// its own strips), but session 2 then drives where session 1's map is sparse and
+    /// drifted, and its trajectory error is about 2.5× the default's (BENCHMARKS.md).
     pub fn lac_coverage() -> Self {
         MissionConfig {
-            seconds_per_session: 600.0,
-            session: coverage_session(),
+            session_2: None,
+            seconds_session_2: None,
+            ..MissionConfig::default()
+        }
+    }
+
+    /// The mission before the coverage loops became the default: both sessions 300 s on the
+    /// spiral around the lander (as measured in BENCHMARKS.md before 2026-11-24).
+    pub fn spiral_only() -> Self {
+        MissionConfig {
+            seconds_per_session: 300.0,
+            session: SessionConfig::default(),
+            session_2: None,
+            seconds_session_2: None,
             ..MissionConfig::default()
         }
     }
@@ -217,18 +256,44 @@ fn coverage_session() -> SessionConfig {
         ..SessionConfig::default()
     };
     session.navigator.arcs.speed_mps = 0.45;
+    session.navigator.arcs.min_horizon_s = MISSION_MIN_ARC_HORIZON_S;
+    session
+}
+
+/// Shortest arc horizon of the mission's planner (seconds, see
+/// [`crate::planning::arc_planner::ArcPlannerConfig::min_horizon_s`]).
+const MISSION_MIN_ARC_HORIZON_S: f64 = 2.0;
+
+/// Session settings of session 2 by default: the spiral around the lander.
+fn spiral_session() -> SessionConfig {
+    let mut session = SessionConfig::default();
+    session.navigator.arcs.min_horizon_s = MISSION_MIN_ARC_HORIZON_S;
     session
 }
 
 impl MissionConfig {
+    /// Simulated seconds of session 1 and session 2.
+    pub fn session_seconds(&self) -> [f64; 2] {
+        [
+            self.seconds_per_session,
+            self.seconds_session_2.unwrap_or(self.seconds_per_session),
+        ]
+    }
+
+    /// Session 2's parameters.
+    pub fn session_2(&self) -> &SessionConfig {
+        self.session_2.as_ref().unwrap_or(&self.session)
+    }
+
     /// Check the values are in range.
     pub fn validate(&self) -> Result<(), MissionError> {
         let bad = |m: &str| Err(MissionError::InvalidConfig(m.to_string()));
-        if !(self.seconds_per_session.is_finite()
-            && self.seconds_per_session > 0.0
-            && self.seconds_per_session <= 1e5)
+        if self
+            .session_seconds()
+            .iter()
+            .any(|s| !(s.is_finite() && *s > 0.0 && *s <= 1e5))
         {
-            return bad("seconds_per_session must be within (0, 1e5]");
+            return bad("seconds_per_session and seconds_session_2 must be within (0, 1e5]");
         }
         if !(self.relocalize_period_s.is_finite() && self.relocalize_period_s >= 1.0) {
             return bad("relocalize_period_s must be at least 1");
@@ -238,6 +303,12 @@ impl MissionConfig {
         }
         if !(self.submap_min_window_s.is_finite() && self.submap_min_window_s >= 0.0) {
             return bad("submap_min_window_s must be non-negative");
+        }
+        if [self.gravity_sigma_rad, self.gate_bootstrap_sigmas]
+            .iter()
+            .any(|v| !(v.is_finite() && *v >= 0.0))
+        {
+            return bad("gravity_sigma_rad and gate_bootstrap_sigmas must be non-negative");
         }
         if !(self.loop_closure_gap_s.is_finite() && self.loop_closure_gap_s >= 0.0) {
             return bad("loop_closure_gap_s must be non-negative");
@@ -305,10 +376,10 @@ pub fn run_mission_with_progress(
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
 
-    let session_1 =
+    let mut session_1 =
         mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
     let relocalizer = Relocalizer::new(session_1.map.clone(), config.relocalize.clone())?;
-    let session_2 = lost_session::localize_session(
+    let mut session_2 = lost_session::localize_session(
         &moon,
         config,
         &relocalizer,
@@ -318,9 +389,20 @@ pub fn run_mission_with_progress(
         progress,
     )?;
     progress.update(MissionStage::Mapping);
+    let dz = terrain_height::height_corrections(
+        &[
+            (&session_1.log, &session_1.poses),
+            (&session_2.log, &session_2.poses),
+        ],
+        &config.terrain_height,
+    );
+    if let [dz_1, dz_2] = dz.as_slice() {
+        session_1.poses = terrain_height::apply(&session_1.poses, dz_1);
+        session_2.poses = terrain_height::apply(&session_2.poses, dz_2);
+    }
 
     let truth = moon.ground_truth_grid();
-    let mission_seconds = 2.0 * config.seconds_per_session;
+    let mission_seconds = config.session_seconds().iter().sum();
     let maps = maps::build_maps(
         &[
             (&session_1.log, &session_1.poses),

@@ -90,8 +90,12 @@ pub struct SessionReport {
     pub duration_s: f64,
     /// Distance driven, metres.
     pub distance_m: f64,
-    /// Position RMSE over the frames with the global factors, metres.
+    /// Position RMSE over the frames with the global factors (and the terrain height
+    /// alignment), metres.
     pub rmse_m: f64,
+    /// Position RMSE of the pose graph's estimate, before the terrain height alignment
+    /// ([`super::terrain_height`]), metres.
+    pub rmse_graph_m: f64,
     /// Position RMSE of odometry alone, aligned at the true start, metres.
     pub rmse_without_global_m: f64,
     /// Distinct collision events.
@@ -172,6 +176,7 @@ fn session_report(
     n: usize,
     log: &SessionLog,
     poses: &[Isometry3<f64>],
+    rmse_graph_m: f64,
     attempts: &[Attempt],
 ) -> SessionReport {
     let s = log.summary();
@@ -180,6 +185,7 @@ fn session_report(
         duration_s: s.duration_s,
         distance_m: s.distance_m,
         rmse_m: rmse_m(log, poses),
+        rmse_graph_m,
         rmse_without_global_m: rmse_m(log, &odometry_in_world(log)),
         collisions: s.collisions,
         detections: s.detections,
@@ -205,8 +211,8 @@ pub(super) fn assemble(
     wall_s: f64,
 ) -> MissionOutput {
     let sessions = vec![
-        session_report(1, &one.log, &one.poses, &one.attempts),
-        session_report(2, &two.log, &two.poses, &two.attempts),
+        session_report(1, &one.log, &one.poses, one.rmse_graph_m, &one.attempts),
+        session_report(2, &two.log, &two.poses, two.rmse_graph_m, &two.attempts),
     ];
     let collisions = sessions.iter().map(|s| s.collisions).sum();
     let simulated: f64 = sessions.iter().map(|s| s.duration_s).sum();

@@ -2,6 +2,7 @@
 //! visual odometry between consecutive frames, anchored at the first frame; relocalization
 //! and loop-closure factors are added by the stages that find them.
 
+use super::gravity::gravity_information;
 use super::odometry_bias::{estimate_bias, BiasPrior, OdometryBias, OdometryStep, StepWeight};
 use crate::graph::{GraphError, PoseGraph, RobustKernel, SolverConfig};
 use crate::sim::session::SessionLog;
@@ -80,6 +81,8 @@ pub struct TrajectoryGraph {
     steps: Vec<OdometryStep>,
     /// Relocalizations and loop closures, in the order added.
     extra: Vec<ExtraFactor>,
+    /// Gravity factors: frame, the IMU's attitude, information.
+    gravity: Vec<(usize, Isometry3<f64>, Matrix6<f64>)>,
 }
 
 impl TrajectoryGraph {
@@ -92,6 +95,7 @@ impl TrajectoryGraph {
             bias: OdometryBias::default(),
             steps: Vec::new(),
             extra: Vec::new(),
+            gravity: Vec::new(),
         }
     }
 
@@ -124,6 +128,14 @@ impl TrajectoryGraph {
                 self.graph
                     .add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
                 self.steps.push(step);
+                if config.gravity_sigma_rad > 0.0 {
+                    // the logged attitude's roll and pitch are the IMU's gravity direction
+                    let information =
+                        gravity_information(&t.session_from_rover, config.gravity_sigma_rad);
+                    self.graph
+                        .add_prior(k as u64, t.session_from_rover, information)?;
+                    self.gravity.push((k, t.session_from_rover, information));
+                }
             }
             self.frames += 1;
         }
@@ -285,6 +297,9 @@ impl TrajectoryGraph {
             let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
             let z = self.bias.correct(step);
             graph.add_between(i as u64, i as u64 + 1, z, info, RobustKernel::None)?;
+        }
+        for (k, attitude, information) in &self.gravity {
+            graph.add_prior(*k as u64, *attitude, *information)?;
         }
         for f in &self.extra {
             match f {

@@ -44,6 +44,11 @@ pub struct ArcPlannerConfig {
     pub unseen_check_offset_m: f64,
     /// Arc points closer than this to the rover skip the seen-ground check, metres.
     pub known_radius_m: f64,
+    /// When no arc is free over `horizon_s`, halve the horizon (down to this, seconds) and
+    /// look again: in a narrow gap (between the lander and a rock, say) every 3.6 m arc
+    /// touches something while a shorter one leads out, and the rover otherwise turns on
+    /// the spot there for the rest of the session. Equal to `horizon_s`: no fallback.
+    pub min_horizon_s: f64,
 }
 
 impl Default for ArcPlannerConfig {
@@ -59,6 +64,7 @@ impl Default for ArcPlannerConfig {
             site_half_extent_m: 19.0,
             unseen_check_offset_m: 0.6,
             known_radius_m: 1.0,
+            min_horizon_s: 8.0,
         }
     }
 }
@@ -282,6 +288,13 @@ impl ArcPlannerConfig {
                     free_arcs: 0,
                 });
             }
+        }
+        if best.is_none() && self.horizon_s > self.min_horizon_s + 1e-9 {
+            let shorter = ArcPlannerConfig {
+                horizon_s: (0.5 * self.horizon_s).max(self.min_horizon_s),
+                ..self.clone()
+            };
+            return shorter.choose(pose, goal, scene);
         }
         best.map(|b| ArcChoice {
             free_arcs: free,

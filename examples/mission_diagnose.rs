@@ -1,0 +1,253 @@
+//! Where the mission's LAC points are lost: the same two sessions' maps scored with the
+//! optimised poses (as the mission does) and with the *true* poses, split into observed and
+//! interpolated cells.
+//!
+//! `cargo run --release --example mission_diagnose -- SEED [--coverage]` prints one JSON line.
+
+use nalgebra::Isometry3;
+use segloc::mapping::{score, HeightMapBuilder};
+use segloc::mission::{lost_session, mapping_session, maps, MissionConfig, Silent};
+use segloc::relocalize::Relocalizer;
+use segloc::sim::moon::Moon;
+use segloc::sim::session::SessionLog;
+use segloc_maps::LacGrid;
+
+fn true_poses(log: &SessionLog) -> Vec<Isometry3<f64>> {
+    log.frames
+        .iter()
+        .map(|f| {
+            log.ticks
+                .get(f.tick)
+                .map_or_else(Isometry3::identity, |t| t.world_from_rover)
+        })
+        .collect()
+}
+
+/// Cells observed, and within 5 cm among observed / interpolated cells.
+fn height_split(sessions: &[(&SessionLog, &[Isometry3<f64>])], truth: &LacGrid) -> [usize; 4] {
+    let mut b = HeightMapBuilder::new(truth.clone());
+    let mut seen = vec![false; truth.num_cells()];
+    for (log, poses) in sessions {
+        for (f, pose) in log.frames.iter().zip(poses.iter()) {
+            for g in &f.ground {
+                let p = pose * g.p_rover;
+                b.add_point(&p);
+                if let Some((i, j)) = truth.cell_of(p.x, p.y) {
+                    seen[truth.index(i, j)] = true;
+                }
+            }
+        }
+    }
+    let grid = b.build();
+    let (mut obs, mut obs_ok, mut int_ok) = (0, 0, 0);
+    for (k, seen) in seen.iter().enumerate() {
+        let ok = (grid.height[k] - truth.height[k]).abs() < 0.05;
+        if *seen {
+            obs += 1;
+            obs_ok += ok as usize;
+        } else {
+            int_ok += ok as usize;
+        }
+    }
+    [obs, obs_ok, truth.num_cells() - obs, int_ok]
+}
+
+/// RMS of the horizontal and vertical position error, metres.
+fn rmse_xy_z(log: &SessionLog, poses: &[Isometry3<f64>]) -> [f64; 2] {
+    let truth = true_poses(log);
+    let (mut xy, mut z) = (0.0, 0.0);
+    for (t, e) in truth.iter().zip(poses) {
+        let d = e.translation.vector - t.translation.vector;
+        xy += d.x * d.x + d.y * d.y;
+        z += d.z * d.z;
+    }
+    let n = truth.len().max(1) as f64;
+    [(xy / n).sqrt(), (z / n).sqrt()]
+}
+
+/// RMS tilt error (angle between the true and estimated up axes), degrees.
+fn tilt_deg(log: &SessionLog, poses: &[Isometry3<f64>]) -> f64 {
+    let truth = true_poses(log);
+    let up = nalgebra::Vector3::z();
+    let s: f64 = truth
+        .iter()
+        .zip(poses)
+        .map(|(t, e)| {
+            (t.rotation * up)
+                .angle(&(e.rotation * up))
+                .to_degrees()
+                .powi(2)
+        })
+        .sum();
+    (s / truth.len().max(1) as f64).sqrt()
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let seed: u64 = args.get(1).map_or(Ok(1), |s| s.parse())?;
+    let config = if args.iter().any(|a| a == "--coverage") {
+        MissionConfig::lac_coverage()
+    } else {
+        MissionConfig::default()
+    };
+    let moon = Moon::generate(&config.moon, seed)?;
+    let min_rock = config.session.collision_min_rock_radius_m;
+    let clear = |s: [f64; 3]| {
+        let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
+        [x, y, s[2]]
+    };
+    let (start_1, start_2) = (clear(config.start_1), clear(config.start_2));
+    let e = config.guess_error_2;
+    let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
+    let s1 = mapping_session::map_session(&moon, &config, start_1, seed * 2, &Silent)?;
+    let relocalizer = Relocalizer::new(s1.map.clone(), config.relocalize.clone())?;
+    let s2 = lost_session::localize_session(
+        &moon,
+        &config,
+        &relocalizer,
+        start_2,
+        guess_2,
+        seed * 2 + 1,
+        &Silent,
+    )?;
+    let (mut s1, mut s2) = (s1, s2);
+    let rmse_graph = [rmse_xy_z(&s1.log, &s1.poses), rmse_xy_z(&s2.log, &s2.poses)];
+    let dz = segloc::mission::terrain_height::height_corrections(
+        &[(&s1.log, &s1.poses), (&s2.log, &s2.poses)],
+        &config.terrain_height,
+    );
+    s1.poses = segloc::mission::terrain_height::apply(&s1.poses, &dz[0]);
+    s2.poses = segloc::mission::terrain_height::apply(&s2.poses, &dz[1]);
+    if std::env::var("DUMP_Z").is_ok() {
+        for (log, poses) in [(&s1.log, &s1.poses), (&s2.log, &s2.poses)] {
+            let t = true_poses(log);
+            for (k, (a, b)) in t.iter().zip(poses.iter()).enumerate() {
+                eprintln!(
+                    "{k} {:.4} {:.4} {:.4} {:.2} {:.2}",
+                    b.translation.z - a.translation.z,
+                    b.translation.x - a.translation.x,
+                    b.translation.y - a.translation.y,
+                    a.translation.x,
+                    a.translation.y
+                );
+            }
+        }
+    }
+    if std::env::var("NAV").is_ok() {
+        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
+            eprintln!(
+                "session {n} (reached, skipped, backups) {:?}",
+                log.navigation_counts
+            );
+            let mut last = None;
+            for t in log.ticks.iter().step_by(20) {
+                if last != Some(t.mode) || t.time_s % 20.0 < 1e-9 {
+                    let p = t.world_from_rover.translation;
+                    eprintln!(
+                        "  {n} t {:.0} {:?} at ({:.1}, {:.1}) cmd {:.2} {:.2}",
+                        t.time_s, t.mode, p.x, p.y, t.command.speed_mps, t.command.yaw_rate_rps
+                    );
+                    last = Some(t.mode);
+                }
+            }
+        }
+    }
+    if std::env::var("COLLISIONS").is_ok() {
+        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
+            let mut last = None;
+            for t in log.collision_ticks() {
+                let Some(segloc::sim::session::Obstruction::Rock(i)) = t.collision else {
+                    eprintln!("session {n} t {:.1} lander", t.time_s);
+                    continue;
+                };
+                if last == Some(i) {
+                    continue;
+                }
+                last = Some(i);
+                let rock = &moon.rocks()[i];
+                let ground = moon.height_at(rock.center.x, rock.center.y);
+                let seen: Vec<String> = log
+                    .frames
+                    .iter()
+                    .filter(|f| f.time_s <= t.time_s)
+                    .flat_map(|f| f.boulders.iter().map(move |b| (f, b)))
+                    .filter(|(_, b)| b.rock == Some(i))
+                    .map(|(f, b)| {
+                        format!(
+                            "{:.0}s r{:.3} d{:.1}",
+                            f.time_s,
+                            b.radius_m,
+                            b.p_rover.coords.norm()
+                        )
+                    })
+                    .collect();
+                eprintln!(
+                    "session {n} t {:.1} rock {i} r {:.3} top above ground {:.3} mode {:?} seen {:?}",
+                    t.time_s, rock.radius_m, rock.center.z + rock.radius_m - ground, t.mode, seen
+                );
+            }
+        }
+    }
+    let truth = moon.ground_truth_grid();
+    let t1 = true_poses(&s1.log);
+    let t2 = true_poses(&s2.log);
+    let est: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &s1.poses), (&s2.log, &s2.poses)];
+    let tru: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &t1), (&s2.log, &t2)];
+    let secs = 2.0 * config.seconds_per_session;
+    let m_est = maps::build_maps(&est, &truth, secs, &config)?;
+    let m_tru = maps::build_maps(&tru, &truth, secs, &config)?;
+    // the optimised poses with the true height: how much of the loss is z
+    let with_true_z = |log: &SessionLog, poses: &[Isometry3<f64>]| -> Vec<Isometry3<f64>> {
+        true_poses(log)
+            .iter()
+            .zip(poses)
+            .map(|(t, e)| {
+                let mut p = *e;
+                p.translation.vector.z = t.translation.vector.z;
+                p
+            })
+            .collect()
+    };
+    let (z1, z2) = (
+        with_true_z(&s1.log, &s1.poses),
+        with_true_z(&s2.log, &s2.poses),
+    );
+    let m_z = maps::build_maps(&[(&s1.log, &z1), (&s2.log, &z2)], &truth, secs, &config)?;
+    let h_est = height_split(&est, &truth);
+    let h_tru = height_split(&tru, &truth);
+    // perfect heights on observed cells, interpolation elsewhere: the coverage ceiling
+    let mut perfect = HeightMapBuilder::new(truth.clone());
+    for (log, poses) in &tru {
+        for (f, pose) in log.frames.iter().zip(poses.iter()) {
+            for g in &f.ground {
+                let p = pose * g.p_rover;
+                if let Some((i, j)) = truth.cell_of(p.x, p.y) {
+                    let (x, y) = truth.cell_center(i, j);
+                    perfect.add_point(&nalgebra::Point3::new(
+                        x,
+                        y,
+                        truth.height[truth.index(i, j)],
+                    ));
+                }
+            }
+        }
+    }
+    let ceiling = score(&perfect.build(), &truth, None)?.geometric;
+    let out = serde_json::json!({
+        "seed": seed,
+        "geometric": [m_est.score.geometric, m_z.score.geometric, m_tru.score.geometric, ceiling],
+        "rocks": [m_est.score.rocks, m_tru.score.rocks],
+        "rock_pr_est": [m_est.score.rock_precision, m_est.score.rock_recall],
+        "rock_pr_true": [m_tru.score.rock_precision, m_tru.score.rock_recall],
+        "cells_observed_ok_unobserved_ok_est": h_est,
+        "cells_observed_ok_unobserved_ok_true": h_tru,
+        "rmse": [segloc::mission::trajectory::rmse_m(&s1.log, &s1.poses), segloc::mission::trajectory::rmse_m(&s2.log, &s2.poses)],
+        "rmse_xy_z_graph": rmse_graph,
+        "tilt_deg": [tilt_deg(&s1.log, &s1.poses), tilt_deg(&s2.log, &s2.poses)],
+        "rmse_xy_z": [rmse_xy_z(&s1.log, &s1.poses), rmse_xy_z(&s2.log, &s2.poses)],
+        "dist": [s1.log.distance_m(), s2.log.distance_m()],
+        "collisions": [s1.log.summary().collisions, s2.log.summary().collisions],
+    });
+    println!("{out}");
+    Ok(())
+}
