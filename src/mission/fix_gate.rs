@@ -22,6 +22,14 @@ pub struct Tolerance {
 }
 
 impl Tolerance {
+    /// The mission's gate (`gate_position_m`, `gate_yaw_deg`).
+    pub fn of_gate(config: &super::MissionConfig) -> Self {
+        Self {
+            position_m: config.gate_position_m,
+            yaw_rad: config.gate_yaw_deg.to_radians(),
+        }
+    }
+
     /// The tolerance widened by the odometry's uncertainty between the two estimates' frames
     /// (`sigma_m`, `sigma_yaw_rad`: one σ), at `n_sigma`.
     pub fn widened(&self, sigma_m: f64, sigma_yaw_rad: f64, n_sigma: f64) -> Self {

@@ -164,16 +164,8 @@ impl Gate {
         if !config.gate_relocalizations {
             return vec![c];
         }
-        let tolerance = Tolerance {
-            position_m: config.gate_position_m,
-            yaw_rad: config.gate_yaw_deg.to_radians(),
-        };
-        let pose = |k: usize| {
-            graph
-                .graph
-                .pose(k as u64)
-                .unwrap_or_else(Isometry3::identity)
-        };
+        let tolerance = Tolerance::of_gate(config);
+        let pose = |k: usize| graph.pose_or_identity(k);
         if let (Some(odom_from_prior), Some(last)) = (graph.odom_from_prior(), self.last_fix_frame)
         {
             let predicted = odom_from_prior.inverse() * pose(c.k);

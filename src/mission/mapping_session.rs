@@ -226,16 +226,8 @@ impl ClosureGate {
         graph: &TrajectoryGraph,
         config: &MissionConfig,
     ) -> Vec<Closure> {
-        let tolerance = Tolerance {
-            position_m: config.gate_position_m,
-            yaw_rad: config.gate_yaw_deg.to_radians(),
-        };
-        let pose = |k: usize| {
-            graph
-                .graph
-                .pose(k as u64)
-                .unwrap_or_else(Isometry3::identity)
-        };
+        let tolerance = Tolerance::of_gate(config);
+        let pose = |k: usize| graph.pose_or_identity(k);
         let implied = |c: &Closure| pose(c.j) * c.j_from_k;
         if agrees(&pose(c.k), &implied(&c), &tolerance) {
             self.pending = None;

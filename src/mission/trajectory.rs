@@ -86,6 +86,13 @@ pub struct TrajectoryGraph {
 }
 
 impl TrajectoryGraph {
+    /// Estimate of frame `k`'s pose `odom_from_rover` (identity for a frame not in the graph).
+    pub fn pose_or_identity(&self, k: usize) -> Isometry3<f64> {
+        self.graph
+            .pose(k as u64)
+            .unwrap_or_else(Isometry3::identity)
+    }
+
     /// An empty graph.
     pub fn new() -> Self {
         Self {
