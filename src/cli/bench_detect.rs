@@ -57,16 +57,20 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
     let mut front_end = FrontEnd::new(config, Box::new(segmenter))?;
     let mut timings: Vec<Vec<FrontEndTiming>> = vec![Vec::new(); pairs.len()];
     let mut boulders = vec![0usize; pairs.len()];
+    let mut cpu_ms: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
     let mut first = None;
     for round in 0..args.warmup + args.repeat.max(1) {
         for (k, pair) in pairs.iter().enumerate() {
+            let cpu_before = process_cpu_ms();
             let result = front_end
                 .process(&pair.left, &pair.right)
                 .with_context(|| format!("pair {}", pair.name))?;
+            let cpu = process_cpu_ms() - cpu_before;
             first.get_or_insert(result.timing);
             boulders[k] = result.boulders.len();
             if round >= args.warmup {
                 timings[k].push(result.timing);
+                cpu_ms[k].push(cpu);
             }
         }
     }
@@ -75,13 +79,18 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
         .iter()
         .zip(&timings)
         .zip(&boulders)
-        .map(|((pair, t), &n)| {
-            json!({"pair": pair.name, "runs": t.len(), "boulders": n, "ms": stage_stats(t)})
+        .zip(&cpu_ms)
+        .map(|(((pair, t), &n), cpu)| {
+            let mut ms = stage_stats(t);
+            ms["cpu"] = stats(cpu.clone());
+            json!({"pair": pair.name, "runs": t.len(), "boulders": n, "ms": ms})
         })
         .collect();
+    let mut all_ms = stage_stats(&all);
+    all_ms["cpu"] = stats(cpu_ms.concat());
     let out = json!({
         "pairs": per_pair,
-        "all": {"runs": all.len(), "ms": stage_stats(&all)},
+        "all": {"runs": all.len(), "ms": all_ms},
         "first_frame_ms": first,
         "threads": rayon::current_num_threads(),
         "warmup_rounds": args.warmup,
@@ -99,13 +108,14 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
         first.map_or(f64::NAN, |t| t.total_ms)
     );
     println!(
-        "{:<10} {:>4}  {:>23}  {:>23}  {:>17}  {:>17}",
+        "{:<10} {:>4}  {:>23}  {:>23}  {:>17}  {:>17}  {:>7}",
         "pair",
         "rocks",
         "total med/p90/min",
         "stereo med/p90/min",
         "segment med/p90",
-        "boulders med/p90"
+        "boulders med/p90",
+        "cpu med"
     );
     let rows = per_pair
         .iter()
@@ -124,7 +134,7 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
     for (name, n, ms) in rows {
         let f = |stage: &str, stat: &str| ms[stage][stat].as_f64().unwrap_or(f64::NAN);
         println!(
-            "{:<10} {:>4}  {:>7.1} {:>7.1} {:>7.1}  {:>7.1} {:>7.1} {:>7.1}  {:>8.1} {:>8.1}  {:>8.1} {:>8.1}",
+            "{:<10} {:>4}  {:>7.1} {:>7.1} {:>7.1}  {:>7.1} {:>7.1} {:>7.1}  {:>8.1} {:>8.1}  {:>8.1} {:>8.1}  {:>7.1}",
             name,
             n.as_u64().map_or(String::new(), |n| n.to_string()),
             f("total", "median"),
@@ -137,6 +147,7 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
             f("segment", "p90"),
             f("boulders", "median"),
             f("boulders", "p90"),
+            f("cpu", "median"),
         );
     }
     Ok(0)
@@ -191,23 +202,38 @@ fn file_stem(path: &Path) -> String {
         .unwrap_or_else(|| "pair".into())
 }
 
-/// Median, 90th percentile (nearest rank) and minimum of each stage, milliseconds.
-fn stage_stats(timings: &[FrontEndTiming]) -> Value {
-    let stats = |f: fn(&FrontEndTiming) -> f64| {
-        let mut v: Vec<f64> = timings.iter().map(f).collect();
-        v.sort_by(f64::total_cmp);
-        if v.is_empty() {
-            return json!(null);
-        }
-        let p90 = v[((0.9 * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
-        let n = v.len();
-        let median = 0.5 * (v[(n - 1) / 2] + v[n / 2]);
-        json!({"median": median, "p90": p90, "min": v[0]})
+/// User + system CPU time of the whole process so far (all threads), milliseconds: with
+/// other work on the machine this says what a frame costs, whatever the wall clock says.
+fn process_cpu_ms() -> f64 {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: getrusage fills the struct it is given; on failure we read the zeroed struct.
+    let usage = unsafe {
+        libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr());
+        usage.assume_init()
     };
+    let ms = |t: libc::timeval| t.tv_sec as f64 * 1e3 + t.tv_usec as f64 * 1e-3;
+    ms(usage.ru_utime) + ms(usage.ru_stime)
+}
+
+/// Median, 90th percentile (nearest rank) and minimum.
+fn stats(mut v: Vec<f64>) -> Value {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return json!(null);
+    }
+    let n = v.len();
+    let p90 = v[((0.9 * n as f64).ceil() as usize).clamp(1, n) - 1];
+    let median = 0.5 * (v[(n - 1) / 2] + v[n / 2]);
+    json!({"median": median, "p90": p90, "min": v[0]})
+}
+
+/// [`stats`] of each stage, milliseconds.
+fn stage_stats(timings: &[FrontEndTiming]) -> Value {
+    let of = |f: fn(&FrontEndTiming) -> f64| stats(timings.iter().map(f).collect());
     json!({
-        "total": stats(|t| t.total_ms),
-        "stereo": stats(|t| t.stereo_ms),
-        "segment": stats(|t| t.segment_ms),
-        "boulders": stats(|t| t.boulders_ms),
+        "total": of(|t| t.total_ms),
+        "stereo": of(|t| t.stereo_ms),
+        "segment": of(|t| t.segment_ms),
+        "boulders": of(|t| t.boulders_ms),
     })
 }

@@ -14,7 +14,7 @@
 use std::ops::Range;
 
 use super::select::select_row;
-use super::sweep::Sweep;
+use super::sweep::{RowCosts, Sweep};
 use super::StereoConfig;
 
 /// One cell of the half-sum volume.
@@ -53,6 +53,7 @@ pub(super) struct RowMatcher {
     best_rev: [Vec<u32>; 2],
     narrow: Vec<u8>,
     wide: Vec<u16>,
+    costs: Vec<u8>,
 }
 
 /// The inputs of one matching run.
@@ -81,6 +82,8 @@ impl RowMatcher {
         self.up.reset(input.w, input.nd, false, diagonals);
         let per_sweep = if diagonals { 4u32 } else { 2 };
         let cells = input.w * input.h * input.nd;
+        ensure_len(&mut self.costs, cells);
+        let costs = &mut self.costs;
         if per_sweep * (input.max_cost as u32 + c.p2 as u32) <= u8::MAX as u32 {
             ensure_len(&mut self.narrow, cells);
             let volume = &mut self.narrow;
@@ -89,6 +92,7 @@ impl RowMatcher {
                 &mut self.down,
                 &mut self.up,
                 volume,
+                costs,
                 &mut self.best_rev,
                 out,
             );
@@ -100,6 +104,7 @@ impl RowMatcher {
                 &mut self.down,
                 &mut self.up,
                 volume,
+                costs,
                 &mut self.best_rev,
                 out,
             );
@@ -123,23 +128,34 @@ fn run_phases<T: Cell>(
     down: &mut Sweep,
     up: &mut Sweep,
     volume: &mut [T],
+    costs: &mut [u8],
     best_rev: &mut [Vec<u32>; 2],
     out: &mut [f32],
 ) {
     let (w, h, nd) = (input.w, input.h, input.nd);
     let mid = h / 2;
     let (vol_top, vol_bottom) = volume.split_at_mut(mid * w * nd);
+    let (cost_top, cost_bottom) = costs.split_at_mut(mid * w * nd);
     let (out_top, out_bottom) = out.split_at_mut(mid * w);
     let [rev_down, rev_up] = best_rev;
     // phase 1: each sweep over its own half, storing its sums
     rayon::join(
-        || store_half(input, down, 0..mid, vol_top),
-        || store_half(input, up, mid..h, vol_bottom),
+        || store_half(input, down, 0..mid, vol_top, cost_top),
+        || store_half(input, up, mid..h, vol_bottom, cost_bottom),
     );
     // phase 2: each sweep over the other half, adding the other's sums, picking disparities
     rayon::join(
-        || finish_half(input, down, mid..h, vol_bottom, rev_down, out_bottom),
-        || finish_half(input, up, 0..mid, vol_top, rev_up, out_top),
+        || {
+            finish_half(
+                input,
+                down,
+                mid..h,
+                (vol_bottom, cost_bottom),
+                rev_down,
+                out_bottom,
+            )
+        },
+        || finish_half(input, up, 0..mid, (vol_top, cost_top), rev_up, out_top),
     );
 }
 
@@ -150,14 +166,21 @@ fn in_sweep_order(sweep: &Sweep, rows: Range<usize>) -> impl Iterator<Item = usi
     (0..b - a).map(move |i| if down { a + i } else { b - 1 - i })
 }
 
-/// Phase 1: sweep `rows`, storing the sums into `vol` (row `y` at `y − rows.start`).
-fn store_half<T: Cell>(input: &MatchInput, sweep: &mut Sweep, rows: Range<usize>, vol: &mut [T]) {
+/// Phase 1: sweep `rows`, storing the sums into `vol` and the matching costs into `costs`
+/// (row `y` at `y − rows.start`).
+fn store_half<T: Cell>(
+    input: &MatchInput,
+    sweep: &mut Sweep,
+    rows: Range<usize>,
+    vol: &mut [T],
+    costs: &mut [u8],
+) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU supports AVX2 and POPCNT (checked just above).
-        return unsafe { store_half_avx2(input, sweep, rows, vol) };
+        return unsafe { store_half_avx2(input, sweep, rows, vol, costs) };
     }
-    store_half_generic(input, sweep, rows, vol)
+    store_half_generic(input, sweep, rows, vol, costs)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -167,8 +190,9 @@ unsafe fn store_half_avx2<T: Cell>(
     sweep: &mut Sweep,
     rows: Range<usize>,
     vol: &mut [T],
+    costs: &mut [u8],
 ) {
-    store_half_generic(input, sweep, rows, vol)
+    store_half_generic(input, sweep, rows, vol, costs)
 }
 
 #[inline(always)]
@@ -177,35 +201,42 @@ fn store_half_generic<T: Cell>(
     sweep: &mut Sweep,
     rows: Range<usize>,
     vol: &mut [T],
+    costs: &mut [u8],
 ) {
     let (w, nd, c) = (input.w, input.nd, input.config);
     let start = rows.start;
     for y in in_sweep_order(sweep, rows) {
-        let (cl, cr) = (&input.cl[y * w..(y + 1) * w], &input.cr[y * w..(y + 1) * w]);
-        sweep.row(cl, cr, input.max_cost, c.p1, c.p2);
-        let stored = &mut vol[(y - start) * w * nd..(y - start + 1) * w * nd];
+        let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
+        let costs = RowCosts::Compute {
+            cl: &input.cl[y * w..(y + 1) * w],
+            cr: &input.cr[y * w..(y + 1) * w],
+            max_cost: input.max_cost,
+            keep: &mut costs[cells.clone()],
+        };
+        sweep.row(costs, c.p1, c.p2);
+        let stored = &mut vol[cells];
         for (s, &p) in stored.iter_mut().zip(&sweep.part) {
             *s = T::narrow(p);
         }
     }
 }
 
-/// Phase 2: sweep `rows`, add the other sweep's sums from `vol` and write the disparities
-/// of each row into `out` (row `y` at `y − rows.start`).
+/// Phase 2: sweep `rows` with the costs the other sweep kept, add its sums and write the
+/// disparities of each row into `out` (row `y` at `y − rows.start` in all three).
 fn finish_half<T: Cell>(
     input: &MatchInput,
     sweep: &mut Sweep,
     rows: Range<usize>,
-    vol: &[T],
+    (vol, costs): (&[T], &[u8]),
     best_rev: &mut Vec<u32>,
     out: &mut [f32],
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU supports AVX2 and POPCNT (checked just above).
-        return unsafe { finish_half_avx2(input, sweep, rows, vol, best_rev, out) };
+        return unsafe { finish_half_avx2(input, sweep, rows, (vol, costs), best_rev, out) };
     }
-    finish_half_generic(input, sweep, rows, vol, best_rev, out)
+    finish_half_generic(input, sweep, rows, (vol, costs), best_rev, out)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -214,11 +245,11 @@ unsafe fn finish_half_avx2<T: Cell>(
     input: &MatchInput,
     sweep: &mut Sweep,
     rows: Range<usize>,
-    vol: &[T],
+    (vol, costs): (&[T], &[u8]),
     best_rev: &mut Vec<u32>,
     out: &mut [f32],
 ) {
-    finish_half_generic(input, sweep, rows, vol, best_rev, out)
+    finish_half_generic(input, sweep, rows, (vol, costs), best_rev, out)
 }
 
 #[inline(always)]
@@ -226,16 +257,16 @@ fn finish_half_generic<T: Cell>(
     input: &MatchInput,
     sweep: &mut Sweep,
     rows: Range<usize>,
-    vol: &[T],
+    (vol, costs): (&[T], &[u8]),
     best_rev: &mut Vec<u32>,
     out: &mut [f32],
 ) {
     let (w, nd, c) = (input.w, input.nd, input.config);
     let start = rows.start;
     for y in in_sweep_order(sweep, rows) {
-        let (cl, cr) = (&input.cl[y * w..(y + 1) * w], &input.cr[y * w..(y + 1) * w]);
-        sweep.row(cl, cr, input.max_cost, c.p1, c.p2);
-        let stored = &vol[(y - start) * w * nd..(y - start + 1) * w * nd];
+        let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
+        sweep.row(RowCosts::Stored(&costs[cells.clone()]), c.p1, c.p2);
+        let stored = &vol[cells];
         for (p, &s) in sweep.part.iter_mut().zip(stored) {
             *p += s.widen();
         }

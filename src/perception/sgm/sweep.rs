@@ -4,8 +4,8 @@
 //! The *down* sweep visits rows top to bottom and each row left to right: its paths come
 //! from the left, from above and (with diagonals) from above-left and above-right. The *up*
 //! sweep is its mirror image (bottom to top, right to left, from below). The matching costs
-//! of a pixel (census Hamming distances, disparity 0 .. nd − 1) are computed when the sweep
-//! reaches it, so no cost volume is kept either.
+//! of a pixel (census Hamming distances, disparity 0 .. nd − 1) are computed by the first
+//! sweep that reaches it and kept for the other (see `matcher.rs`).
 //!
 //! Path buffers hold each pixel's `nd` costs between two sentinels (`SENTINEL`, never the
 //! minimum), so the step `L(d) = C(d) + min(L'(d), L'(d ± 1) + P1, min L' + P2) − min L'`
@@ -14,6 +14,20 @@
 /// Stands for "no such disparity" at both ends of a path buffer; adding P1 (≤ 1000) stays
 /// below `u16::MAX`, and real path costs never reach it (at most 48 + 1000 per path).
 const SENTINEL: u16 = 0x7FFF;
+
+/// Where a row's matching costs come from.
+pub(super) enum RowCosts<'a> {
+    /// Computed from the census strings of the row (left `cl`, right `cr`; `max_cost`
+    /// where the right pixel falls outside the image) and kept in `keep[x nd + d]`.
+    Compute {
+        cl: &'a [u64],
+        cr: &'a [u64],
+        max_cost: u16,
+        keep: &'a mut [u8],
+    },
+    /// Read from `[x nd + d]`, as kept by the other sweep.
+    Stored(&'a [u8]),
+}
 
 /// State of one sweep (path costs of the previous row) and its output for the last row.
 #[derive(Clone, Debug, Default)]
@@ -34,6 +48,10 @@ pub(super) struct Sweep {
     diag_min: [[Vec<u16>; 2]; 2],
     /// Matching costs of the current pixel.
     cost: Vec<u16>,
+    /// The right image's census strings of the current row, see [`fill_planes`].
+    planes: [Vec<u16>; 3],
+    /// The slot every path starts from (zeros between the sentinels).
+    zero: Vec<u16>,
     /// The sum of this sweep's paths for the last row done: `part[x nd + d]`.
     pub(super) part: Vec<u16>,
 }
@@ -62,6 +80,8 @@ impl Sweep {
                 ],
                 diag_min: [[vec![0; w], vec![0; w]], [vec![0; w], vec![0; w]]],
                 cost: vec![0; nd],
+                zero: [&[SENTINEL][..], &vec![0; nd], &[SENTINEL]].concat(),
+                planes: [vec![0; w], vec![0; w], vec![0; w]],
                 part: vec![0; w * nd],
             };
         }
@@ -74,70 +94,85 @@ impl Sweep {
         self.down
     }
 
-    /// Aggregate the next row (census strings of this row in the left and right image)
-    /// into [`Sweep::part`]. Call only from code compiled for the instruction set in use
-    /// (the callers in `matcher.rs` dispatch once per half image).
+    /// Aggregate the next row into [`Sweep::part`], its matching costs computed (and kept)
+    /// or read. Call only from code compiled for the instruction set in use (the callers
+    /// in `matcher.rs` dispatch once per half image).
     #[inline(always)]
-    pub(super) fn row(&mut self, cl: &[u64], cr: &[u64], max_cost: u16, p1: u16, p2: u16) {
+    pub(super) fn row(&mut self, costs: RowCosts, p1: u16, p2: u16) {
         let (w, nd) = (self.w, self.nd);
         let sp = nd + 2;
         let first_row = self.rows_done == 0;
+        let Sweep {
+            down,
+            diagonals,
+            hor,
+            vert,
+            vert_min,
+            diag,
+            diag_min,
+            cost,
+            part,
+            zero,
+            planes,
+            ..
+        } = self;
+        let zero: &[u16] = zero;
+        let mut costs = costs;
+        if let RowCosts::Compute { cr, .. } = costs {
+            fill_planes(planes, cr);
+        }
+        let planes: &[Vec<u16>; 3] = planes;
         let mut h_min = 0u16;
         for i in 0..w {
-            let x = if self.down { i } else { w - 1 - i };
-            fill_costs(&mut self.cost, cl[x], &cr[..=x], max_cost);
-            let cost = &self.cost[..];
-            let part = &mut self.part[x * nd..(x + 1) * nd];
-
-            let [h_prev, h_cur] = &mut self.hor;
-            h_min = if i == 0 {
-                path_start(cost, h_cur)
-            } else {
-                path_step(cost, h_prev, h_min, h_cur, p1, p2)
-            };
-            part.copy_from_slice(&h_cur[1..=nd]);
-            self.hor.swap(0, 1);
-
-            let slot = x * sp..(x + 1) * sp;
-            let [v_prev, v_cur] = &mut self.vert;
-            let v_cur = &mut v_cur[slot.clone()];
-            self.vert_min[1][x] = if first_row {
-                path_start(cost, v_cur)
-            } else {
-                path_step(
-                    cost,
-                    &v_prev[slot.clone()],
-                    self.vert_min[0][x],
-                    v_cur,
-                    p1,
-                    p2,
-                )
-            };
-            accumulate(part, &v_cur[1..=nd]);
-
-            if self.diagonals {
-                for k in 0..2 {
-                    let from = if k == 0 {
-                        x.checked_sub(1)
-                    } else {
-                        Some(x + 1).filter(|&p| p < w)
-                    };
-                    let [d_prev, d_cur] = &mut self.diag[k];
-                    let d_cur = &mut d_cur[slot.clone()];
-                    self.diag_min[k][1][x] = match from {
-                        Some(p) if !first_row => path_step(
-                            cost,
-                            &d_prev[p * sp..(p + 1) * sp],
-                            self.diag_min[k][0][p],
-                            d_cur,
-                            p1,
-                            p2,
-                        ),
-                        _ => path_start(cost, d_cur),
-                    };
-                    accumulate(part, &d_cur[1..=nd]);
+            let x = if *down { i } else { w - 1 - i };
+            let cells = x * nd..(x + 1) * nd;
+            match &mut costs {
+                RowCosts::Compute {
+                    cl, max_cost, keep, ..
+                } => {
+                    fill_costs(cost, cl[x], planes, x, *max_cost);
+                    for (k, &c) in keep[cells].iter_mut().zip(cost.iter()) {
+                        *k = c as u8;
+                    }
+                }
+                RowCosts::Stored(stored) => {
+                    for (c, &k) in cost.iter_mut().zip(&stored[cells]) {
+                        *c = k as u16;
+                    }
                 }
             }
+            let slot = x * sp..(x + 1) * sp;
+            let part = &mut part[x * nd..(x + 1) * nd];
+            let [h_prev, h_cur] = &mut *hor;
+            let h_from = if i == 0 {
+                (zero, 0)
+            } else {
+                (&h_prev[..], h_min)
+            };
+            let [v_prev, v_cur] = &mut *vert;
+            let v_from = if first_row {
+                (zero, 0)
+            } else {
+                (&v_prev[slot.clone()], vert_min[0][x])
+            };
+            let v_cur = &mut v_cur[slot.clone()];
+            h_min = step::<true>(cost, h_from, h_cur, part, p1, p2);
+            vert_min[1][x] = step::<false>(cost, v_from, v_cur, part, p1, p2);
+            if *diagonals {
+                let [[a_prev, a_cur], [b_prev, b_cur]] = &mut *diag;
+                let [a_min, b_min] = &mut *diag_min;
+                let a_from = match x.checked_sub(1) {
+                    Some(p) if !first_row => (&a_prev[p * sp..(p + 1) * sp], a_min[0][p]),
+                    _ => (zero, 0),
+                };
+                let b_from = match Some(x + 1).filter(|&p| p < w) {
+                    Some(p) if !first_row => (&b_prev[p * sp..(p + 1) * sp], b_min[0][p]),
+                    _ => (zero, 0),
+                };
+                a_min[1][x] = step::<false>(cost, a_from, &mut a_cur[slot.clone()], part, p1, p2);
+                b_min[1][x] = step::<false>(cost, b_from, &mut b_cur[slot], part, p1, p2);
+            }
+            hor.swap(0, 1);
         }
         self.vert.swap(0, 1);
         self.vert_min.swap(0, 1);
@@ -149,45 +184,68 @@ impl Sweep {
     }
 }
 
-/// `cost[d]` = Hamming distance between the left string `l` and the right image's string
-/// at column x − d (`right_to_x` = that row's strings up to column x); `max_cost` where
+/// The right image's census strings of one row as three 16-bit planes in reversed column
+/// order (`planes[k][w − 1 − x]` = bits 16k .. 16k + 15 of column x), so that the strings
+/// at x − d for increasing d are contiguous and 16 costs fit in one AVX2 register.
+#[inline(always)]
+fn fill_planes(planes: &mut [Vec<u16>; 3], cr: &[u64]) {
+    for (k, plane) in planes.iter_mut().enumerate() {
+        for (p, &r) in plane.iter_mut().zip(cr.iter().rev()) {
+            *p = (r >> (16 * k)) as u16;
+        }
+    }
+}
+
+/// `cost[d]` = Hamming distance between the left string `l` (at column x) and the right
+/// image's string at column x − d, from the planes of [`fill_planes`]; `max_cost` where
 /// x − d falls outside the image.
 #[inline(always)]
-fn fill_costs(cost: &mut [u16], l: u64, right_to_x: &[u64], max_cost: u16) {
-    let dmax = cost.len().min(right_to_x.len());
-    for (c, &r) in cost[..dmax].iter_mut().zip(right_to_x.iter().rev()) {
-        *c = (l ^ r).count_ones() as u16;
+fn fill_costs(cost: &mut [u16], l: u64, planes: &[Vec<u16>; 3], x: usize, max_cost: u16) {
+    let w = planes[0].len();
+    let dmax = cost.len().min(x + 1);
+    let j = w - 1 - x;
+    let (l0, l1, l2) = (l as u16, (l >> 16) as u16, (l >> 32) as u16);
+    let (r0, r1, r2) = (
+        &planes[0][j..j + dmax],
+        &planes[1][j..j + dmax],
+        &planes[2][j..j + dmax],
+    );
+    for (((c, &a), &b), &e) in cost[..dmax].iter_mut().zip(r0).zip(r1).zip(r2) {
+        *c = ((l0 ^ a).count_ones() + (l1 ^ b).count_ones() + (l2 ^ e).count_ones()) as u16;
     }
     cost[dmax..].fill(max_cost);
 }
 
-/// Start a path: `out = cost` (between the sentinels); returns its minimum.
+/// One path step at one pixel, from the previous slot `from` (and its minimum) into `out`:
+/// `L(d) = C(d) + min(L'(d), L'(d ± 1) + P1, min L' + P2) − min L'`. `part` gets `L`
+/// (`FIRST`) or `L` added. A path starts from the zero slot with minimum 0 (then `L = C`).
+/// Returns the new minimum.
 #[inline(always)]
-fn path_start(cost: &[u16], out: &mut [u16]) -> u16 {
+fn step<const FIRST: bool>(
+    cost: &[u16],
+    from: (&[u16], u16),
+    out: &mut [u16],
+    part: &mut [u16],
+    p1: u16,
+    p2: u16,
+) -> u16 {
     let nd = cost.len();
-    out[1..=nd].copy_from_slice(cost);
-    cost.iter().copied().fold(u16::MAX, u16::min)
-}
-
-/// One path step from the previous pixel's slot `prev` (minimum `prev_min`) into `out`;
-/// returns the minimum of the new costs.
-#[inline(always)]
-fn path_step(cost: &[u16], prev: &[u16], prev_min: u16, out: &mut [u16], p1: u16, p2: u16) -> u16 {
-    let nd = cost.len();
+    let (prev, prev_min) = from;
     let jump = prev_min + p2;
-    let mut min = u16::MAX;
     let (lo, mid, hi) = (&prev[..nd], &prev[1..=nd], &prev[2..nd + 2]);
-    for ((((o, &c), &a), &b), &z) in out[1..=nd].iter_mut().zip(cost).zip(lo).zip(mid).zip(hi) {
+    let mut min = u16::MAX;
+    for (((((o, s), &c), &a), &b), &z) in out[1..=nd]
+        .iter_mut()
+        .zip(&mut part[..nd])
+        .zip(cost)
+        .zip(lo)
+        .zip(mid)
+        .zip(hi)
+    {
         let v = c + b.min(a.min(z) + p1).min(jump) - prev_min;
         *o = v;
+        *s = if FIRST { v } else { *s + v };
         min = min.min(v);
     }
     min
-}
-
-#[inline(always)]
-fn accumulate(sum: &mut [u16], l: &[u16]) {
-    for (s, &v) in sum.iter_mut().zip(l) {
-        *s += v;
-    }
 }
