@@ -58,9 +58,10 @@ pub(super) struct RowMatcher {
 
 /// The inputs of one matching run.
 pub(super) struct MatchInput<'a> {
-    /// Census strings of the left and right image at the working resolution.
-    pub cl: &'a [u64],
-    pub cr: &'a [u64],
+    /// Census planes (`census_planes_into`) of the left and right image at the working
+    /// resolution.
+    pub cl: &'a [u16],
+    pub cr: &'a [u16],
     pub w: usize,
     pub h: usize,
     /// Disparities searched (0 .. nd − 1).
@@ -208,8 +209,8 @@ fn store_half_generic<T: Cell>(
     for y in in_sweep_order(sweep, rows) {
         let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
         let costs = RowCosts::Compute {
-            cl: &input.cl[y * w..(y + 1) * w],
-            cr: &input.cr[y * w..(y + 1) * w],
+            cl: &input.cl[3 * y * w..3 * (y + 1) * w],
+            cr: &input.cr[3 * y * w..3 * (y + 1) * w],
             max_cost: input.max_cost,
             keep: &mut costs[cells.clone()],
         };

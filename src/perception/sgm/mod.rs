@@ -15,7 +15,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::census::{census_bits, census_transform_into};
+use super::census::{census_bits, census_planes_into};
 use super::{DisparityMap, GrayImage, PerceptionError, StereoCamera};
 
 mod filters;
@@ -112,8 +112,8 @@ impl StereoConfig {
 /// disparities), so a stream of frames does not pay for fresh memory every time.
 #[derive(Clone, Debug, Default)]
 pub struct StereoScratch {
-    census_left: Vec<u64>,
-    census_right: Vec<u64>,
+    census_left: Vec<u16>,
+    census_right: Vec<u16>,
     textured: Vec<bool>,
     matcher: RowMatcher,
 }
@@ -171,8 +171,8 @@ pub fn compute_disparity_with(
     } = scratch;
     let radius = config.census_radius;
     rayon::join(
-        || census_transform_into(&l, radius, census_left),
-        || census_transform_into(&r, radius, census_right),
+        || census_planes_into(&l, radius, census_left),
+        || census_planes_into(&r, radius, census_right),
     );
     texture_mask(&l, config.min_texture, textured);
     let mut data = vec![f32::NAN; w * h];
@@ -286,8 +286,10 @@ mod tests {
         let (w, h) = (l.width, l.height);
         let nd = config.max_disparity.min(w - 1).max(2);
         let radius = config.census_radius;
-        let cl = crate::perception::census::census_transform(l, radius);
-        let cr = crate::perception::census::census_transform(r, radius);
+        let (mut cl, mut cr) = (Vec::new(), Vec::new());
+        census_planes_into(l, radius, &mut cl);
+        census_planes_into(r, radius, &mut cr);
+
         let mut textured = Vec::new();
         texture_mask(l, config.min_texture, &mut textured);
         let max_cost = census_bits(radius) as u16;
@@ -303,8 +305,16 @@ mod tests {
         };
         let mut rows = vec![f32::NAN; w * h];
         scratch.matcher.run(&input, &mut rows);
-        let reference =
-            reference::reference_disparity(&cl, &cr, w, h, nd, max_cost as u8, config, &textured);
+        let reference = reference::reference_disparity(
+            &crate::perception::census::census_transform(l, radius),
+            &crate::perception::census::census_transform(r, radius),
+            w,
+            h,
+            nd,
+            max_cost as u8,
+            config,
+            &textured,
+        );
         (rows, reference)
     }
 

@@ -17,11 +17,12 @@ const SENTINEL: u16 = 0x7FFF;
 
 /// Where a row's matching costs come from.
 pub(super) enum RowCosts<'a> {
-    /// Computed from the census strings of the row (left `cl`, right `cr`; `max_cost`
-    /// where the right pixel falls outside the image) and kept in `keep[x nd + d]`.
+    /// Computed from the census planes of the row (left `cl`, right `cr`, each `3 w` as
+    /// `census_planes_into` lays them out; `max_cost` where the right pixel falls outside
+    /// the image) and kept in `keep[x nd + d]`.
     Compute {
-        cl: &'a [u64],
-        cr: &'a [u64],
+        cl: &'a [u16],
+        cr: &'a [u16],
         max_cost: u16,
         keep: &'a mut [u8],
     },
@@ -130,7 +131,8 @@ impl Sweep {
                 RowCosts::Compute {
                     cl, max_cost, keep, ..
                 } => {
-                    fill_costs(cost, cl[x], planes, x, *max_cost);
+                    let l = [cl[x], cl[w + x], cl[2 * w + x]];
+                    fill_costs(cost, l, planes, x, *max_cost);
                     for (k, &c) in keep[cells].iter_mut().zip(cost.iter()) {
                         *k = c as u8;
                     }
@@ -184,27 +186,28 @@ impl Sweep {
     }
 }
 
-/// The right image's census strings of one row as three 16-bit planes in reversed column
-/// order (`planes[k][w − 1 − x]` = bits 16k .. 16k + 15 of column x), so that the strings
-/// at x − d for increasing d are contiguous and 16 costs fit in one AVX2 register.
+/// The right image's census planes of one row in reversed column order
+/// (`planes[k][w − 1 − x]` = plane k at column x), so that the strings at x − d for
+/// increasing d are contiguous and 16 costs fit in one AVX2 register.
 #[inline(always)]
-fn fill_planes(planes: &mut [Vec<u16>; 3], cr: &[u64]) {
+fn fill_planes(planes: &mut [Vec<u16>; 3], cr: &[u16]) {
+    let w = planes[0].len();
     for (k, plane) in planes.iter_mut().enumerate() {
-        for (p, &r) in plane.iter_mut().zip(cr.iter().rev()) {
-            *p = (r >> (16 * k)) as u16;
+        for (p, &r) in plane.iter_mut().zip(cr[k * w..(k + 1) * w].iter().rev()) {
+            *p = r;
         }
     }
 }
 
-/// `cost[d]` = Hamming distance between the left string `l` (at column x) and the right
-/// image's string at column x − d, from the planes of [`fill_planes`]; `max_cost` where
-/// x − d falls outside the image.
+/// `cost[d]` = Hamming distance between the left string `l` (three planes, at column x)
+/// and the right image's string at column x − d, from the planes of [`fill_planes`];
+/// `max_cost` where x − d falls outside the image.
 #[inline(always)]
-fn fill_costs(cost: &mut [u16], l: u64, planes: &[Vec<u16>; 3], x: usize, max_cost: u16) {
+fn fill_costs(cost: &mut [u16], l: [u16; 3], planes: &[Vec<u16>; 3], x: usize, max_cost: u16) {
     let w = planes[0].len();
     let dmax = cost.len().min(x + 1);
     let j = w - 1 - x;
-    let (l0, l1, l2) = (l as u16, (l >> 16) as u16, (l >> 32) as u16);
+    let [l0, l1, l2] = l;
     let (r0, r1, r2) = (
         &planes[0][j..j + dmax],
         &planes[1][j..j + dmax],
