@@ -1,13 +1,15 @@
 //! Semi-global matching by two row sweeps that meet in the middle, on two threads.
 //!
 //! The down sweep (rows top to bottom) and the up sweep (bottom to top) each carry their
-//! paths' costs for the previous row only. Phase 1: the down sweep runs over the top half
-//! and stores its per-row sums, the up sweep over the bottom half likewise. Phase 2: each
-//! sweep continues into the other half, adds the other sweep's stored sums row by row and
-//! picks the disparities of that row at once. So the only image-sized buffer is one
-//! volume of half-sums (u8 when a sweep's paths cannot exceed 255, as with the defaults:
-//! 2 paths × (48 + 48); u16 otherwise) — no cost volume, no second aggregation volume —
-//! and the result is exactly that of summing all paths over whole-image volumes.
+//! paths' costs for the previous row only. Phase 1: the down sweep runs over the top half,
+//! computes the matching costs and stores them with its per-row sums; the up sweep does
+//! the same over the bottom half. Phase 2: each sweep continues into the other half with
+//! the costs kept there, adds the other sweep's stored sums row by row and picks the
+//! disparities of that row at once. So each cost is computed once, and the image-sized
+//! buffers are the costs (u8) and one volume of half-sums (u8 when a sweep's paths cannot
+//! exceed 255, as with the defaults: 2 paths × (48 + 48); u16 otherwise): 2 × 22 MB at half
+//! resolution with 96 disparities, where whole-image aggregation took 22 + 2 × 44 MB. The
+//! result is exactly that of summing all paths over whole-image volumes.
 //! The two phases are `rayon::join`s, so the result does not depend on the thread count
 //! and one thread cannot deadlock.
 

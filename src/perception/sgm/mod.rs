@@ -8,10 +8,10 @@
 //! sub-pixel refinement; removal of weakly textured pixels and small speckles.
 //!
 //! The paths are aggregated by two row sweeps (top-down with left-to-right, bottom-up with
-//! right-to-left, see [`matcher`](self)) that run on two threads and meet in the middle:
-//! costs are computed on the fly, and the only image-sized buffer is one volume of
-//! half-sums (22 MB at half resolution with 96 disparities), reused from frame to frame
-//! through [`StereoScratch`].
+//! right-to-left, see `matcher.rs`) that run on two threads and meet in the middle: the
+//! image-sized buffers are the matching costs and one volume of half-sums (u8 each, 2 ×
+//! 22 MB at half resolution with 96 disparities), reused from frame to frame through
+//! [`StereoScratch`].
 
 use serde::{Deserialize, Serialize};
 
@@ -107,8 +107,8 @@ impl StereoConfig {
     }
 }
 
-/// Buffers reused from one pair to the next (the census strings, the texture mask and the
-/// matcher's volume of half-sums and row buffers: about 27 MB at half resolution with 96
+/// Buffers reused from one pair to the next (the census planes, the texture mask and the
+/// matcher's costs, half-sums and row buffers: about 48 MB at half resolution with 96
 /// disparities), so a stream of frames does not pay for fresh memory every time.
 #[derive(Clone, Debug, Default)]
 pub struct StereoScratch {
