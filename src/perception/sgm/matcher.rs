@@ -16,46 +16,28 @@
 use std::ops::Range;
 
 use super::select::select_row;
-use super::sweep::{RowCosts, Sweep};
+use super::sweep::{Lane, RowCosts, Sweep};
 use super::StereoConfig;
-
-/// One cell of the half-sum volume.
-trait Cell: Copy + Default + Send + Sync {
-    fn narrow(v: u16) -> Self;
-    fn widen(self) -> u16;
-}
-
-impl Cell for u8 {
-    #[inline(always)]
-    fn narrow(v: u16) -> u8 {
-        v as u8
-    }
-    #[inline(always)]
-    fn widen(self) -> u16 {
-        self as u16
-    }
-}
-
-impl Cell for u16 {
-    #[inline(always)]
-    fn narrow(v: u16) -> u16 {
-        v
-    }
-    #[inline(always)]
-    fn widen(self) -> u16 {
-        self
-    }
-}
 
 /// Buffers of the row matcher, reused from one pair to the next.
 #[derive(Clone, Debug, Default)]
 pub(super) struct RowMatcher {
-    down: Sweep,
-    up: Sweep,
-    best_rev: [Vec<u32>; 2],
-    narrow: Vec<u8>,
-    wide: Vec<u16>,
+    /// Sweeps on bytes (when a sweep's paths sum to at most 255, as with the defaults).
+    narrow: Sweeps<u8>,
+    /// Sweeps on 16-bit integers otherwise.
+    wide: Sweeps<u16>,
+    /// Matching costs `[(y w + x) nd + d]`, kept by phase 1 for phase 2.
     costs: Vec<u8>,
+    /// Per thread: scratch of [`select_row`] and the row's total sums.
+    rows: [(Vec<u32>, Vec<u16>); 2],
+}
+
+/// The two sweeps and their volume of half-sums, all of one lane type.
+#[derive(Clone, Debug, Default)]
+struct Sweeps<L: Lane> {
+    down: Sweep<L>,
+    up: Sweep<L>,
+    volume: Vec<L>,
 }
 
 /// The inputs of one matching run.
@@ -80,44 +62,61 @@ impl RowMatcher {
     /// reliable match is found).
     pub(super) fn run(&mut self, input: &MatchInput, out: &mut [f32]) {
         let c = input.config;
-        let diagonals = c.paths == 8;
-        self.down.reset(input.w, input.nd, true, diagonals);
-        self.up.reset(input.w, input.nd, false, diagonals);
-        let per_sweep = if diagonals { 4u32 } else { 2 };
-        let cells = input.w * input.h * input.nd;
-        ensure_len(&mut self.costs, cells);
-        let costs = &mut self.costs;
+        let per_sweep = if c.paths == 8 { 4u32 } else { 2 };
+        ensure_len(&mut self.costs, input.w * input.h * input.nd);
         if per_sweep * (input.max_cost as u32 + c.p2 as u32) <= u8::MAX as u32 {
-            ensure_len(&mut self.narrow, cells);
-            let volume = &mut self.narrow;
-            run_phases(
-                input,
-                &mut self.down,
-                &mut self.up,
-                volume,
-                costs,
-                &mut self.best_rev,
-                out,
-            );
+            self.narrow.run(input, &mut self.costs, &mut self.rows, out);
         } else {
-            ensure_len(&mut self.wide, cells);
-            let volume = &mut self.wide;
-            run_phases(
-                input,
-                &mut self.down,
-                &mut self.up,
-                volume,
-                costs,
-                &mut self.best_rev,
-                out,
-            );
+            self.wide.run(input, &mut self.costs, &mut self.rows, out);
         }
+    }
+}
+
+impl<L: Lane> Sweeps<L> {
+    fn run(
+        &mut self,
+        input: &MatchInput,
+        costs: &mut [u8],
+        rows: &mut [(Vec<u32>, Vec<u16>); 2],
+        out: &mut [f32],
+    ) {
+        let (w, h, nd) = (input.w, input.h, input.nd);
+        let diagonals = input.config.paths == 8;
+        self.down.reset(w, nd, true, diagonals);
+        self.up.reset(w, nd, false, diagonals);
+        ensure_len(&mut self.volume, w * h * nd);
+        let mid = h / 2;
+        let (vol_top, vol_bottom) = self.volume.split_at_mut(mid * w * nd);
+        let (cost_top, cost_bottom) = costs.split_at_mut(mid * w * nd);
+        let (out_top, out_bottom) = out.split_at_mut(mid * w);
+        let [rows_down, rows_up] = rows;
+        let (down, up) = (&mut self.down, &mut self.up);
+        // phase 1: each sweep over its own half, keeping its costs and sums
+        rayon::join(
+            || store_half(input, down, 0..mid, vol_top, cost_top),
+            || store_half(input, up, mid..h, vol_bottom, cost_bottom),
+        );
+        // phase 2: each sweep over the other half with the costs kept there, adding the
+        // other's sums and picking disparities row by row
+        rayon::join(
+            || {
+                finish_half(
+                    input,
+                    down,
+                    mid..h,
+                    (vol_bottom, cost_bottom),
+                    rows_down,
+                    out_bottom,
+                )
+            },
+            || finish_half(input, up, 0..mid, (vol_top, cost_top), rows_up, out_top),
+        );
     }
 }
 
 /// Make `v` hold `len` cells; a new buffer is asked for huge pages before its first touch
 /// (fewer page faults on a cold start: the kernel zeroes 2 MB at a time).
-fn ensure_len<T: Cell>(v: &mut Vec<T>, len: usize) {
+fn ensure_len<T: Copy + Default>(v: &mut Vec<T>, len: usize) {
     if v.len() == len {
         return;
     }
@@ -126,44 +125,8 @@ fn ensure_len<T: Cell>(v: &mut Vec<T>, len: usize) {
     super::huge_pages::advise(v.as_mut_ptr() as *mut u8, len * std::mem::size_of::<T>());
 }
 
-fn run_phases<T: Cell>(
-    input: &MatchInput,
-    down: &mut Sweep,
-    up: &mut Sweep,
-    volume: &mut [T],
-    costs: &mut [u8],
-    best_rev: &mut [Vec<u32>; 2],
-    out: &mut [f32],
-) {
-    let (w, h, nd) = (input.w, input.h, input.nd);
-    let mid = h / 2;
-    let (vol_top, vol_bottom) = volume.split_at_mut(mid * w * nd);
-    let (cost_top, cost_bottom) = costs.split_at_mut(mid * w * nd);
-    let (out_top, out_bottom) = out.split_at_mut(mid * w);
-    let [rev_down, rev_up] = best_rev;
-    // phase 1: each sweep over its own half, storing its sums
-    rayon::join(
-        || store_half(input, down, 0..mid, vol_top, cost_top),
-        || store_half(input, up, mid..h, vol_bottom, cost_bottom),
-    );
-    // phase 2: each sweep over the other half, adding the other's sums, picking disparities
-    rayon::join(
-        || {
-            finish_half(
-                input,
-                down,
-                mid..h,
-                (vol_bottom, cost_bottom),
-                rev_down,
-                out_bottom,
-            )
-        },
-        || finish_half(input, up, 0..mid, (vol_top, cost_top), rev_up, out_top),
-    );
-}
-
 /// The rows of `rows` in the sweep's order.
-fn in_sweep_order(sweep: &Sweep, rows: Range<usize>) -> impl Iterator<Item = usize> {
+fn in_sweep_order<L: Lane>(sweep: &Sweep<L>, rows: Range<usize>) -> impl Iterator<Item = usize> {
     let down = sweep.is_down();
     let (a, b) = (rows.start, rows.end);
     (0..b - a).map(move |i| if down { a + i } else { b - 1 - i })
@@ -171,11 +134,11 @@ fn in_sweep_order(sweep: &Sweep, rows: Range<usize>) -> impl Iterator<Item = usi
 
 /// Phase 1: sweep `rows`, storing the sums into `vol` and the matching costs into `costs`
 /// (row `y` at `y − rows.start`).
-fn store_half<T: Cell>(
+fn store_half<L: Lane>(
     input: &MatchInput,
-    sweep: &mut Sweep,
+    sweep: &mut Sweep<L>,
     rows: Range<usize>,
-    vol: &mut [T],
+    vol: &mut [L],
     costs: &mut [u8],
 ) {
     #[cfg(target_arch = "x86_64")]
@@ -188,22 +151,22 @@ fn store_half<T: Cell>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt")]
-unsafe fn store_half_avx2<T: Cell>(
+unsafe fn store_half_avx2<L: Lane>(
     input: &MatchInput,
-    sweep: &mut Sweep,
+    sweep: &mut Sweep<L>,
     rows: Range<usize>,
-    vol: &mut [T],
+    vol: &mut [L],
     costs: &mut [u8],
 ) {
     store_half_generic(input, sweep, rows, vol, costs)
 }
 
 #[inline(always)]
-fn store_half_generic<T: Cell>(
+fn store_half_generic<L: Lane>(
     input: &MatchInput,
-    sweep: &mut Sweep,
+    sweep: &mut Sweep<L>,
     rows: Range<usize>,
-    vol: &mut [T],
+    vol: &mut [L],
     costs: &mut [u8],
 ) {
     let (w, nd, c) = (input.w, input.nd, input.config);
@@ -216,65 +179,74 @@ fn store_half_generic<T: Cell>(
             max_cost: input.max_cost,
             keep: &mut costs[cells.clone()],
         };
-        sweep.row(costs, c.p1, c.p2);
+        sweep.row(costs, L::of(c.p1), L::of(c.p2));
         let stored = &mut vol[cells];
         for (s, &p) in stored.iter_mut().zip(&sweep.part) {
-            *s = T::narrow(p);
+            *s = p;
         }
     }
 }
 
 /// Phase 2: sweep `rows` with the costs the other sweep kept, add its sums and write the
 /// disparities of each row into `out` (row `y` at `y − rows.start` in all three).
-fn finish_half<T: Cell>(
+fn finish_half<L: Lane>(
     input: &MatchInput,
-    sweep: &mut Sweep,
+    sweep: &mut Sweep<L>,
     rows: Range<usize>,
-    (vol, costs): (&[T], &[u8]),
-    best_rev: &mut Vec<u32>,
+    (vol, costs): (&[L], &[u8]),
+    row_scratch: &mut (Vec<u32>, Vec<u16>),
     out: &mut [f32],
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU supports AVX2 and POPCNT (checked just above).
-        return unsafe { finish_half_avx2(input, sweep, rows, (vol, costs), best_rev, out) };
+        return unsafe { finish_half_avx2(input, sweep, rows, (vol, costs), row_scratch, out) };
     }
-    finish_half_generic(input, sweep, rows, (vol, costs), best_rev, out)
+    finish_half_generic(input, sweep, rows, (vol, costs), row_scratch, out)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt")]
-unsafe fn finish_half_avx2<T: Cell>(
+unsafe fn finish_half_avx2<L: Lane>(
     input: &MatchInput,
-    sweep: &mut Sweep,
+    sweep: &mut Sweep<L>,
     rows: Range<usize>,
-    (vol, costs): (&[T], &[u8]),
-    best_rev: &mut Vec<u32>,
+    (vol, costs): (&[L], &[u8]),
+    row_scratch: &mut (Vec<u32>, Vec<u16>),
     out: &mut [f32],
 ) {
-    finish_half_generic(input, sweep, rows, (vol, costs), best_rev, out)
+    finish_half_generic(input, sweep, rows, (vol, costs), row_scratch, out)
 }
 
 #[inline(always)]
-fn finish_half_generic<T: Cell>(
+fn finish_half_generic<L: Lane>(
     input: &MatchInput,
-    sweep: &mut Sweep,
+    sweep: &mut Sweep<L>,
     rows: Range<usize>,
-    (vol, costs): (&[T], &[u8]),
-    best_rev: &mut Vec<u32>,
+    (vol, costs): (&[L], &[u8]),
+    row_scratch: &mut (Vec<u32>, Vec<u16>),
     out: &mut [f32],
 ) {
     let (w, nd, c) = (input.w, input.nd, input.config);
+    let (best_rev, sum) = row_scratch;
     let start = rows.start;
     for y in in_sweep_order(sweep, rows) {
         let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
-        sweep.row(RowCosts::Stored(&costs[cells.clone()]), c.p1, c.p2);
-        let stored = &vol[cells];
-        for (p, &s) in sweep.part.iter_mut().zip(stored) {
-            *p += s.widen();
-        }
+        sweep.row(
+            RowCosts::Stored(&costs[cells.clone()]),
+            L::of(c.p1),
+            L::of(c.p2),
+        );
+        sum.clear();
+        sum.extend(
+            sweep
+                .part
+                .iter()
+                .zip(&vol[cells])
+                .map(|(p, s)| p.wide() + s.wide()),
+        );
         let textured = &input.textured[y * w..(y + 1) * w];
         let out_row = &mut out[(y - start) * w..(y - start + 1) * w];
-        select_row(&sweep.part, nd, c, textured, out_row, best_rev);
+        select_row(sum, nd, c, textured, out_row, best_rev);
     }
 }

@@ -7,13 +7,58 @@
 //! of a pixel (census Hamming distances, disparity 0 .. nd − 1) are computed by the first
 //! sweep that reaches it and kept for the other (see `matcher.rs`).
 //!
-//! Path buffers hold each pixel's `nd` costs between two sentinels (`SENTINEL`, never the
-//! minimum), so the step `L(d) = C(d) + min(L'(d), L'(d ± 1) + P1, min L' + P2) − min L'`
-//! has no special case at the ends of the disparity range and vectorises.
+//! Path buffers hold each pixel's `nd` costs between two sentinels (the lane type's
+//! maximum, never the minimum; additions saturate), so the step
+//! `L(d) = C(d) + min(L'(d), L'(d ± 1) + P1, min L' + P2) − min L'` has no special case at
+//! the ends of the disparity range and vectorises. A path cost is at most
+//! `max_cost + P2` (96 with the defaults), so when the sweep's paths sum to at most 255 the
+//! sweep runs on bytes ([`Lane`] `u8`, 32 per AVX2 register), else on `u16`.
 
-/// Stands for "no such disparity" at both ends of a path buffer; adding P1 (≤ 1000) stays
-/// below `u16::MAX`, and real path costs never reach it (at most 48 + 1000 per path).
-const SENTINEL: u16 = 0x7FFF;
+/// The integer type of a sweep's path costs and sums: `u8` or `u16`.
+pub(super) trait Lane: Copy + Ord + Default + Send + Sync + std::fmt::Debug {
+    /// The largest value, used as the sentinel.
+    const MAX: Self;
+    /// The value `v` (which the caller knows to fit).
+    fn of(v: u16) -> Self;
+    /// As `u16`.
+    fn wide(self) -> u16;
+    /// `self + other`, saturating.
+    fn sat_add(self, other: Self) -> Self;
+    /// `self + other` (the caller knows it fits).
+    fn add(self, other: Self) -> Self;
+    /// `self − other` (the caller knows `other ≤ self`).
+    fn sub(self, other: Self) -> Self;
+}
+
+macro_rules! lane {
+    ($t:ty) => {
+        impl Lane for $t {
+            const MAX: $t = <$t>::MAX;
+            #[inline(always)]
+            fn of(v: u16) -> $t {
+                v as $t
+            }
+            #[inline(always)]
+            fn wide(self) -> u16 {
+                self as u16
+            }
+            #[inline(always)]
+            fn sat_add(self, other: $t) -> $t {
+                self.saturating_add(other)
+            }
+            #[inline(always)]
+            fn add(self, other: $t) -> $t {
+                self.wrapping_add(other)
+            }
+            #[inline(always)]
+            fn sub(self, other: $t) -> $t {
+                self.wrapping_sub(other)
+            }
+        }
+    };
+}
+lane!(u8);
+lane!(u16);
 
 /// Where a row's matching costs come from.
 pub(super) enum RowCosts<'a> {
@@ -32,7 +77,7 @@ pub(super) enum RowCosts<'a> {
 
 /// State of one sweep (path costs of the previous row) and its output for the last row.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Sweep {
+pub(super) struct Sweep<L: Lane> {
     /// Top to bottom, left to right (else bottom to top, right to left).
     down: bool,
     diagonals: bool,
@@ -40,24 +85,24 @@ pub(super) struct Sweep {
     nd: usize,
     rows_done: usize,
     /// Horizontal path: the previous pixel's slot and this pixel's.
-    hor: [Vec<u16>; 2],
+    hor: [Vec<L>; 2],
     /// Vertical path: `w` slots for the previous row, `w` for this row.
-    vert: [Vec<u16>; 2],
-    vert_min: [Vec<u16>; 2],
+    vert: [Vec<L>; 2],
+    vert_min: [Vec<L>; 2],
     /// Diagonal paths (k = 0 from column x − 1 of the previous row, k = 1 from x + 1).
-    diag: [[Vec<u16>; 2]; 2],
-    diag_min: [[Vec<u16>; 2]; 2],
+    diag: [[Vec<L>; 2]; 2],
+    diag_min: [[Vec<L>; 2]; 2],
     /// Matching costs of the current pixel.
-    cost: Vec<u16>,
+    cost: Vec<L>,
     /// The right image's census strings of the current row, see [`fill_planes`].
     planes: [Vec<u16>; 3],
     /// The slot every path starts from (zeros between the sentinels).
-    zero: Vec<u16>,
+    zero: Vec<L>,
     /// The sum of this sweep's paths for the last row done: `part[x nd + d]`.
-    pub(super) part: Vec<u16>,
+    pub(super) part: Vec<L>,
 }
 
-impl Sweep {
+impl<L: Lane> Sweep<L> {
     /// Make the sweep ready for a new image of width `w` with `nd` disparities; buffers
     /// are reused when the shape is unchanged.
     pub(super) fn reset(&mut self, w: usize, nd: usize, down: bool, diagonals: bool) {
@@ -65,7 +110,8 @@ impl Sweep {
         let same = self.w == w && self.nd == nd && self.diagonals == diagonals;
         if !same || self.part.len() != w * nd {
             let n_diag = if diagonals { slots } else { 0 };
-            let fresh = |n: usize| vec![SENTINEL; n];
+            let fresh = |n: usize| vec![L::MAX; n];
+            let zeros = |n: usize| vec![L::default(); n];
             *self = Sweep {
                 down,
                 diagonals,
@@ -74,16 +120,16 @@ impl Sweep {
                 rows_done: 0,
                 hor: [fresh(nd + 2), fresh(nd + 2)],
                 vert: [fresh(slots), fresh(slots)],
-                vert_min: [vec![0; w], vec![0; w]],
+                vert_min: [zeros(w), zeros(w)],
                 diag: [
                     [fresh(n_diag), fresh(n_diag)],
                     [fresh(n_diag), fresh(n_diag)],
                 ],
-                diag_min: [[vec![0; w], vec![0; w]], [vec![0; w], vec![0; w]]],
-                cost: vec![0; nd],
-                zero: [&[SENTINEL][..], &vec![0; nd], &[SENTINEL]].concat(),
+                diag_min: [[zeros(w), zeros(w)], [zeros(w), zeros(w)]],
+                cost: zeros(nd),
+                zero: [&[L::MAX][..], &zeros(nd), &[L::MAX]].concat(),
                 planes: [vec![0; w], vec![0; w], vec![0; w]],
-                part: vec![0; w * nd],
+                part: zeros(w * nd),
             };
         }
         self.down = down;
@@ -99,7 +145,7 @@ impl Sweep {
     /// or read. Call only from code compiled for the instruction set in use (the callers
     /// in `matcher.rs` dispatch once per half image).
     #[inline(always)]
-    pub(super) fn row(&mut self, costs: RowCosts, p1: u16, p2: u16) {
+    pub(super) fn row(&mut self, costs: RowCosts, p1: L, p2: L) {
         let (w, nd) = (self.w, self.nd);
         let sp = nd + 2;
         let first_row = self.rows_done == 0;
@@ -117,13 +163,13 @@ impl Sweep {
             planes,
             ..
         } = self;
-        let zero: &[u16] = zero;
+        let zero: &[L] = zero;
         let mut costs = costs;
         if let RowCosts::Compute { cr, .. } = costs {
             fill_planes(planes, cr);
         }
         let planes: &[Vec<u16>; 3] = planes;
-        let mut h_min = 0u16;
+        let mut h_min = L::default();
         for i in 0..w {
             let x = if *down { i } else { w - 1 - i };
             let cells = x * nd..(x + 1) * nd;
@@ -134,12 +180,12 @@ impl Sweep {
                     let l = [cl[x], cl[w + x], cl[2 * w + x]];
                     fill_costs(cost, l, planes, x, *max_cost);
                     for (k, &c) in keep[cells].iter_mut().zip(cost.iter()) {
-                        *k = c as u8;
+                        *k = c.wide() as u8;
                     }
                 }
                 RowCosts::Stored(stored) => {
                     for (c, &k) in cost.iter_mut().zip(&stored[cells]) {
-                        *c = k as u16;
+                        *c = L::of(k as u16);
                     }
                 }
             }
@@ -147,32 +193,33 @@ impl Sweep {
             let part = &mut part[x * nd..(x + 1) * nd];
             let [h_prev, h_cur] = &mut *hor;
             let h_from = if i == 0 {
-                (zero, 0)
+                (zero, L::default())
             } else {
                 (&h_prev[..], h_min)
             };
             let [v_prev, v_cur] = &mut *vert;
             let v_from = if first_row {
-                (zero, 0)
+                (zero, L::default())
             } else {
                 (&v_prev[slot.clone()], vert_min[0][x])
             };
             let v_cur = &mut v_cur[slot.clone()];
-            h_min = step::<true>(cost, h_from, h_cur, part, p1, p2);
-            vert_min[1][x] = step::<false>(cost, v_from, v_cur, part, p1, p2);
+            h_min = step::<L, true>(cost, h_from, h_cur, part, p1, p2);
+            vert_min[1][x] = step::<L, false>(cost, v_from, v_cur, part, p1, p2);
             if *diagonals {
                 let [[a_prev, a_cur], [b_prev, b_cur]] = &mut *diag;
                 let [a_min, b_min] = &mut *diag_min;
                 let a_from = match x.checked_sub(1) {
                     Some(p) if !first_row => (&a_prev[p * sp..(p + 1) * sp], a_min[0][p]),
-                    _ => (zero, 0),
+                    _ => (zero, L::default()),
                 };
                 let b_from = match Some(x + 1).filter(|&p| p < w) {
                     Some(p) if !first_row => (&b_prev[p * sp..(p + 1) * sp], b_min[0][p]),
-                    _ => (zero, 0),
+                    _ => (zero, L::default()),
                 };
-                a_min[1][x] = step::<false>(cost, a_from, &mut a_cur[slot.clone()], part, p1, p2);
-                b_min[1][x] = step::<false>(cost, b_from, &mut b_cur[slot], part, p1, p2);
+                a_min[1][x] =
+                    step::<L, false>(cost, a_from, &mut a_cur[slot.clone()], part, p1, p2);
+                b_min[1][x] = step::<L, false>(cost, b_from, &mut b_cur[slot], part, p1, p2);
             }
             hor.swap(0, 1);
         }
@@ -203,7 +250,13 @@ fn fill_planes(planes: &mut [Vec<u16>; 3], cr: &[u16]) {
 /// and the right image's string at column x − d, from the planes of [`fill_planes`];
 /// `max_cost` where x − d falls outside the image.
 #[inline(always)]
-fn fill_costs(cost: &mut [u16], l: [u16; 3], planes: &[Vec<u16>; 3], x: usize, max_cost: u16) {
+fn fill_costs<L: Lane>(
+    cost: &mut [L],
+    l: [u16; 3],
+    planes: &[Vec<u16>; 3],
+    x: usize,
+    max_cost: u16,
+) {
     let w = planes[0].len();
     let dmax = cost.len().min(x + 1);
     let j = w - 1 - x;
@@ -214,9 +267,9 @@ fn fill_costs(cost: &mut [u16], l: [u16; 3], planes: &[Vec<u16>; 3], x: usize, m
         &planes[2][j..j + dmax],
     );
     for (((c, &a), &b), &e) in cost[..dmax].iter_mut().zip(r0).zip(r1).zip(r2) {
-        *c = ((l0 ^ a).count_ones() + (l1 ^ b).count_ones() + (l2 ^ e).count_ones()) as u16;
+        *c = L::of(((l0 ^ a).count_ones() + (l1 ^ b).count_ones() + (l2 ^ e).count_ones()) as u16);
     }
-    cost[dmax..].fill(max_cost);
+    cost[dmax..].fill(L::of(max_cost));
 }
 
 /// One path step at one pixel, from the previous slot `from` (and its minimum) into `out`:
@@ -224,19 +277,19 @@ fn fill_costs(cost: &mut [u16], l: [u16; 3], planes: &[Vec<u16>; 3], x: usize, m
 /// (`FIRST`) or `L` added. A path starts from the zero slot with minimum 0 (then `L = C`).
 /// Returns the new minimum.
 #[inline(always)]
-fn step<const FIRST: bool>(
-    cost: &[u16],
-    from: (&[u16], u16),
-    out: &mut [u16],
-    part: &mut [u16],
-    p1: u16,
-    p2: u16,
-) -> u16 {
+fn step<L: Lane, const FIRST: bool>(
+    cost: &[L],
+    from: (&[L], L),
+    out: &mut [L],
+    part: &mut [L],
+    p1: L,
+    p2: L,
+) -> L {
     let nd = cost.len();
     let (prev, prev_min) = from;
-    let jump = prev_min + p2;
+    let jump = prev_min.sat_add(p2);
     let (lo, mid, hi) = (&prev[..nd], &prev[1..=nd], &prev[2..nd + 2]);
-    let mut min = u16::MAX;
+    let mut min = L::MAX;
     for (((((o, s), &c), &a), &b), &z) in out[1..=nd]
         .iter_mut()
         .zip(&mut part[..nd])
@@ -245,9 +298,9 @@ fn step<const FIRST: bool>(
         .zip(mid)
         .zip(hi)
     {
-        let v = c + b.min(a.min(z) + p1).min(jump) - prev_min;
+        let v = b.min(a.min(z).sat_add(p1)).min(jump).sub(prev_min).add(c);
         *o = v;
-        *s = if FIRST { v } else { *s + v };
+        *s = if FIRST { v } else { s.add(v) };
         min = min.min(v);
     }
     min
