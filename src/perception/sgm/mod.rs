@@ -171,10 +171,14 @@ pub fn compute_disparity_with(
     } = scratch;
     let radius = config.census_radius;
     rayon::join(
-        || census_planes_into(&l, radius, census_left),
-        || census_planes_into(&r, radius, census_right),
+        || {
+            rayon::join(
+                || census_planes_into(&l, radius, census_left),
+                || census_planes_into(&r, radius, census_right),
+            )
+        },
+        || texture_mask(&l, config.min_texture, textured),
     );
-    texture_mask(&l, config.min_texture, textured);
     let mut data = vec![f32::NAN; w * h];
     let input = MatchInput {
         cl: census_left,
