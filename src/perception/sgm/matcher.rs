@@ -15,7 +15,7 @@
 
 use std::ops::Range;
 
-use super::select::select_row;
+use super::select::{select_row, SelectScratch};
 use super::sweep::{Lane, RowCosts, Sweep};
 use super::StereoConfig;
 
@@ -29,7 +29,7 @@ pub(super) struct RowMatcher {
     /// Matching costs `[(y w + x) nd + d]`, kept by phase 1 for phase 2.
     costs: Vec<u8>,
     /// Per thread: scratch of [`select_row`] and the row's total sums.
-    rows: [(Vec<u32>, Vec<u16>); 2],
+    rows: [(SelectScratch, Vec<u16>); 2],
 }
 
 /// The two sweeps and their volume of half-sums, all of one lane type.
@@ -77,7 +77,7 @@ impl<L: Lane> Sweeps<L> {
         &mut self,
         input: &MatchInput,
         costs: &mut [u8],
-        rows: &mut [(Vec<u32>, Vec<u16>); 2],
+        rows: &mut [(SelectScratch, Vec<u16>); 2],
         out: &mut [f32],
     ) {
         let (w, h, nd) = (input.w, input.h, input.nd);
@@ -194,7 +194,7 @@ fn finish_half<L: Lane>(
     sweep: &mut Sweep<L>,
     rows: Range<usize>,
     (vol, costs): (&[L], &[u8]),
-    row_scratch: &mut (Vec<u32>, Vec<u16>),
+    row_scratch: &mut (SelectScratch, Vec<u16>),
     out: &mut [f32],
 ) {
     #[cfg(target_arch = "x86_64")]
@@ -212,7 +212,7 @@ unsafe fn finish_half_avx2<L: Lane>(
     sweep: &mut Sweep<L>,
     rows: Range<usize>,
     (vol, costs): (&[L], &[u8]),
-    row_scratch: &mut (Vec<u32>, Vec<u16>),
+    row_scratch: &mut (SelectScratch, Vec<u16>),
     out: &mut [f32],
 ) {
     finish_half_generic(input, sweep, rows, (vol, costs), row_scratch, out)
@@ -224,11 +224,13 @@ fn finish_half_generic<L: Lane>(
     sweep: &mut Sweep<L>,
     rows: Range<usize>,
     (vol, costs): (&[L], &[u8]),
-    row_scratch: &mut (Vec<u32>, Vec<u16>),
+    row_scratch: &mut (SelectScratch, Vec<u16>),
     out: &mut [f32],
 ) {
     let (w, nd, c) = (input.w, input.nd, input.config);
     let (best_rev, sum) = row_scratch;
+    let per_sweep = if c.paths == 8 { 4 } else { 2 };
+    let max_sum = 2 * per_sweep * (input.max_cost as u32 + c.p2 as u32);
     let start = rows.start;
     for y in in_sweep_order(sweep, rows) {
         let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
@@ -247,6 +249,6 @@ fn finish_half_generic<L: Lane>(
         );
         let textured = &input.textured[y * w..(y + 1) * w];
         let out_row = &mut out[(y - start) * w..(y - start + 1) * w];
-        select_row(sum, nd, c, textured, out_row, best_rev);
+        select_row(sum, nd, max_sum, c, textured, out_row, best_rev);
     }
 }

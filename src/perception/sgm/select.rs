@@ -4,37 +4,90 @@
 
 use super::StereoConfig;
 
-/// A sum and its disparity as one key: the smaller sum wins, ties go to the smaller
-/// disparity (as a strict `<` scan in increasing disparity does).
-#[inline(always)]
-fn key(sum: u16, d: u32) -> u32 {
-    ((sum as u32) << 16) | d
+/// A sum and its disparity as one key, `sum << shift | d`: the smaller sum wins, ties go to
+/// the smaller disparity (as a strict `<` scan in increasing disparity does). 16-bit keys
+/// (16 per AVX2 register) when the largest sum fits, as with the defaults (4 × 96 = 384
+/// with 7 bits for 96 disparities); 32-bit keys otherwise.
+trait Key: Copy + Ord {
+    const MAX: Self;
+    fn make(sum: u16, d: usize, shift: u32) -> Self;
+    fn split(self, shift: u32) -> (u16, usize);
 }
 
-/// Disparities of one row. `sum[x nd + d]` are the summed path costs of all paths;
-/// `textured` marks the pixels worth matching; `out` (NaN-filled) gets the disparities.
-/// `best_rev` is scratch space. Call only from code compiled for the instruction set in
-/// use (see `matcher.rs`).
+impl Key for u16 {
+    const MAX: u16 = u16::MAX;
+    #[inline(always)]
+    fn make(sum: u16, d: usize, shift: u32) -> u16 {
+        (sum << shift) | d as u16
+    }
+    #[inline(always)]
+    fn split(self, shift: u32) -> (u16, usize) {
+        (self >> shift, (self & ((1 << shift) - 1)) as usize)
+    }
+}
+
+impl Key for u32 {
+    const MAX: u32 = u32::MAX;
+    #[inline(always)]
+    fn make(sum: u16, d: usize, shift: u32) -> u32 {
+        ((sum as u32) << shift) | d as u32
+    }
+    #[inline(always)]
+    fn split(self, shift: u32) -> (u16, usize) {
+        ((self >> shift) as u16, (self & ((1 << shift) - 1)) as usize)
+    }
+}
+
+/// Scratch space of [`select_row`]: the right image's best keys.
+#[derive(Clone, Debug, Default)]
+pub(super) struct SelectScratch {
+    narrow: Vec<u16>,
+    wide: Vec<u32>,
+}
+
+/// Disparities of one row. `sum[x nd + d]` are the summed path costs of all paths, at most
+/// `max_sum`; `textured` marks the pixels worth matching; `out` (NaN-filled) gets the
+/// disparities. Call only from code compiled for the instruction set in use (see
+/// `matcher.rs`).
 #[inline(always)]
 pub(super) fn select_row(
     sum: &[u16],
     nd: usize,
+    max_sum: u32,
     config: &StereoConfig,
     textured: &[bool],
     out: &mut [f32],
-    best_rev: &mut Vec<u32>,
+    scratch: &mut SelectScratch,
+) {
+    let d_bits = usize::BITS - (nd - 1).leading_zeros();
+    if ((max_sum as u64) << d_bits) + nd as u64 <= u16::MAX as u64 {
+        select_keys(sum, nd, d_bits, config, textured, out, &mut scratch.narrow);
+    } else {
+        select_keys(sum, nd, 16, config, textured, out, &mut scratch.wide);
+    }
+}
+
+#[inline(always)]
+fn select_keys<K: Key>(
+    sum: &[u16],
+    nd: usize,
+    shift: u32,
+    config: &StereoConfig,
+    textured: &[bool],
+    out: &mut [f32],
+    best_rev: &mut Vec<K>,
 ) {
     let w = out.len();
     // Right image disparity dR(xr) = argmin_d S(xr + d, d), stored at w − 1 − xr so that
     // the slots one left pixel updates are contiguous in increasing d.
     best_rev.clear();
-    best_rev.resize(w, u32::MAX);
+    best_rev.resize(w, K::MAX);
     for x in 0..w {
         let dmax = nd.min(x + 1);
         let base = w - 1 - x;
         let s = &sum[x * nd..x * nd + dmax];
-        for ((slot, &v), d) in best_rev[base..base + dmax].iter_mut().zip(s).zip(0u32..) {
-            *slot = (*slot).min(key(v, d));
+        for (d, (slot, &v)) in best_rev[base..base + dmax].iter_mut().zip(s).enumerate() {
+            *slot = (*slot).min(K::make(v, d, shift));
         }
     }
     let keep = 1.0 - config.uniqueness;
@@ -46,10 +99,10 @@ pub(super) fn select_row(
         let s = &sum[x * nd..x * nd + dmax];
         let winner = s
             .iter()
-            .zip(0u32..)
-            .map(|(&v, d)| key(v, d))
-            .fold(u32::MAX, u32::min);
-        let (best, bd) = ((winner >> 16) as u16, (winner & 0xFFFF) as usize);
+            .enumerate()
+            .map(|(d, &v)| K::make(v, d, shift))
+            .fold(K::MAX, K::min);
+        let (best, bd) = winner.split(shift);
         if bd == 0 || bd + 1 >= dmax {
             continue; // at the edge of the search range: no parabola, likely out of range
         }
@@ -59,7 +112,7 @@ pub(super) fn select_row(
             continue;
         }
         // left–right consistency
-        let right_d = best_rev[w - 1 - (x - bd)] & 0xFFFF;
+        let (_, right_d) = best_rev[w - 1 - (x - bd)].split(shift);
         if (right_d as f32 - bd as f32).abs() > config.lr_tolerance {
             continue;
         }
