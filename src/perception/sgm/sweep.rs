@@ -28,10 +28,14 @@ pub(super) trait Lane: Copy + Ord + Default + Send + Sync + std::fmt::Debug {
     fn add(self, other: Self) -> Self;
     /// `self − other` (the caller knows `other ≤ self`).
     fn sub(self, other: Self) -> Self;
+    /// Bytes as lanes, when the lanes are bytes.
+    fn of_bytes(b: &[u8]) -> Option<&[Self]>;
+    /// Bytes as lanes, when the lanes are bytes.
+    fn of_bytes_mut(b: &mut [u8]) -> Option<&mut [Self]>;
 }
 
 macro_rules! lane {
-    ($t:ty) => {
+    ($t:ty, $bytes:expr, $bytes_mut:expr) => {
         impl Lane for $t {
             const MAX: $t = <$t>::MAX;
             #[inline(always)]
@@ -54,11 +58,19 @@ macro_rules! lane {
             fn sub(self, other: $t) -> $t {
                 self.wrapping_sub(other)
             }
+            #[inline(always)]
+            fn of_bytes(b: &[u8]) -> Option<&[$t]> {
+                $bytes(b)
+            }
+            #[inline(always)]
+            fn of_bytes_mut(b: &mut [u8]) -> Option<&mut [$t]> {
+                $bytes_mut(b)
+            }
         }
     };
 }
-lane!(u8);
-lane!(u16);
+lane!(u8, Some, Some);
+lane!(u16, |_| None, |_| None);
 
 /// Where a row's matching costs come from.
 pub(super) enum RowCosts<'a> {
@@ -173,22 +185,34 @@ impl<L: Lane> Sweep<L> {
         for i in 0..w {
             let x = if *down { i } else { w - 1 - i };
             let cells = x * nd..(x + 1) * nd;
-            match &mut costs {
+            // on bytes, the kept costs are the lane costs: computed in place, read in place
+            let cost: &[L] = match &mut costs {
                 RowCosts::Compute {
                     cl, max_cost, keep, ..
                 } => {
                     let l = [cl[x], cl[w + x], cl[2 * w + x]];
-                    fill_costs(cost, l, planes, x, *max_cost);
-                    for (k, &c) in keep[cells].iter_mut().zip(cost.iter()) {
-                        *k = c.wide() as u8;
+                    if let Some(kept) = L::of_bytes_mut(&mut keep[cells.clone()]) {
+                        fill_costs(kept, l, planes, x, *max_cost);
+                        kept
+                    } else {
+                        fill_costs(cost, l, planes, x, *max_cost);
+                        for (k, &c) in keep[cells].iter_mut().zip(cost.iter()) {
+                            *k = c.wide() as u8;
+                        }
+                        cost
                     }
                 }
                 RowCosts::Stored(stored) => {
-                    for (c, &k) in cost.iter_mut().zip(&stored[cells]) {
-                        *c = L::of(k as u16);
+                    if let Some(kept) = L::of_bytes(&stored[cells.clone()]) {
+                        kept
+                    } else {
+                        for (c, &k) in cost.iter_mut().zip(&stored[cells]) {
+                            *c = L::of(k as u16);
+                        }
+                        cost
                     }
                 }
-            }
+            };
             let slot = x * sp..(x + 1) * sp;
             let part = &mut part[x * nd..(x + 1) * nd];
             let [h_prev, h_cur] = &mut *hor;
