@@ -179,11 +179,7 @@ fn store_half_generic<L: Lane>(
             max_cost: input.max_cost,
             keep: &mut costs[cells.clone()],
         };
-        sweep.row(costs, L::of(c.p1), L::of(c.p2));
-        let stored = &mut vol[cells];
-        for (s, &p) in stored.iter_mut().zip(&sweep.part) {
-            *s = p;
-        }
+        sweep.row(costs, Some(&mut vol[cells]), L::of(c.p1), L::of(c.p2));
     }
 }
 
@@ -236,6 +232,7 @@ fn finish_half_generic<L: Lane>(
         let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
         sweep.row(
             RowCosts::Stored(&costs[cells.clone()]),
+            None,
             L::of(c.p1),
             L::of(c.p2),
         );

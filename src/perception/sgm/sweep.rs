@@ -110,7 +110,8 @@ pub(super) struct Sweep<L: Lane> {
     planes: [Vec<u16>; 3],
     /// The slot every path starts from (zeros between the sentinels).
     zero: Vec<L>,
-    /// The sum of this sweep's paths for the last row done: `part[x nd + d]`.
+    /// The sum of this sweep's paths for the last row done without a destination:
+    /// `part[x nd + d]`.
     pub(super) part: Vec<L>,
 }
 
@@ -153,11 +154,12 @@ impl<L: Lane> Sweep<L> {
         self.down
     }
 
-    /// Aggregate the next row into [`Sweep::part`], its matching costs computed (and kept)
-    /// or read. Call only from code compiled for the instruction set in use (the callers
-    /// in `matcher.rs` dispatch once per half image).
+    /// Aggregate the next row into `dst` (`[x nd + d]`), or into [`Sweep::part`] without
+    /// one, its matching costs computed (and kept) or read. Call only from code compiled
+    /// for the instruction set in use (the callers in `matcher.rs` dispatch once per half
+    /// image).
     #[inline(always)]
-    pub(super) fn row(&mut self, costs: RowCosts, p1: L, p2: L) {
+    pub(super) fn row(&mut self, costs: RowCosts, dst: Option<&mut [L]>, p1: L, p2: L) {
         let (w, nd) = (self.w, self.nd);
         let sp = nd + 2;
         let first_row = self.rows_done == 0;
@@ -176,6 +178,10 @@ impl<L: Lane> Sweep<L> {
             ..
         } = self;
         let zero: &[L] = zero;
+        let part: &mut [L] = match dst {
+            Some(dst) => dst,
+            None => part,
+        };
         let mut costs = costs;
         if let RowCosts::Compute { cr, .. } = costs {
             fill_planes(planes, cr);
