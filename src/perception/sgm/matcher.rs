@@ -37,21 +37,26 @@ pub(super) struct RowMatcher {
 struct Sweeps<L: Lane> {
     down: Sweep<L>,
     up: Sweep<L>,
+    /// Half-sums `[(y w + x) nd + d]`: the down sweep's in the top half, the up sweep's in
+    /// the bottom half.
     volume: Vec<L>,
 }
 
 /// The inputs of one matching run.
 pub(super) struct MatchInput<'a> {
-    /// Census planes (`census_planes_into`) of the left and right image at the working
-    /// resolution.
+    /// Census planes (`census_planes_into`) of the left image at the working resolution.
     pub cl: &'a [u16],
+    /// The same of the right image.
     pub cr: &'a [u16],
+    /// Width of the images at the working resolution, pixels.
     pub w: usize,
+    /// Height, pixels.
     pub h: usize,
     /// Disparities searched (0 .. nd − 1).
     pub nd: usize,
     /// Cost where the right pixel falls outside the image (the census bit count).
     pub max_cost: u16,
+    /// Penalties, paths and the checks of the winner-takes-all.
     pub config: &'a StereoConfig,
     /// Pixels worth matching.
     pub textured: &'a [bool],
