@@ -109,6 +109,53 @@ fn detect_cli_rejects_bad_input_with_exit_code_2() {
     assert!(v["boulders"].is_array());
 }
 
+/// `segloc bench detect` times every real pair in one process and reports each stage; a
+/// folder without pairs is bad input (exit code 2).
+#[test]
+fn bench_detect_times_every_pair_and_stage() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let out = common::segloc()
+        .args([
+            "bench", "detect", "--repeat", "2", "--warmup", "0", "--json", "--images",
+        ])
+        .arg(data.join("lac-images"))
+        .output()
+        .unwrap();
+    common::assert_success(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let pairs = v["pairs"].as_array().unwrap();
+    assert_eq!(pairs.len(), PAIRS.len());
+    for (p, name) in pairs.iter().zip(PAIRS) {
+        assert_eq!(p["pair"], name);
+        assert_eq!(p["runs"], 2);
+        for stage in ["total", "stereo", "segment", "boulders", "cpu"] {
+            let ms = &p["ms"][stage];
+            let (min, median, p90) = (
+                ms["min"].as_f64(),
+                ms["median"].as_f64(),
+                ms["p90"].as_f64(),
+            );
+            let (min, median, p90) = (min.unwrap(), median.unwrap(), p90.unwrap());
+            assert!(
+                0.0 <= min && min <= median && median <= p90,
+                "{name} {stage}: {ms}"
+            );
+        }
+    }
+    assert_eq!(v["all"]["runs"], 2 * PAIRS.len());
+    assert!(v["first_frame_ms"]["total_ms"].as_f64().unwrap() > 0.0);
+    let tmp = tempfile::tempdir().unwrap();
+    let out = common::segloc()
+        .args(["bench", "detect", "--images"])
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(common::stderr_of(&out).contains("no NAME_0.png"));
+}
+
 /// Rocks the geometric segmenter finds on the real pairs (read off the overlays): each
 /// must come out as a boulder whose centroid lies within 20 px of the listed pixel, at a
 /// depth within 15 % of the listed one.

@@ -1,4 +1,5 @@
-//! `segloc bench associate <problem> [--repeat R] [--threads N] [--json]`.
+//! `segloc bench associate <problem> [--repeat R] [--threads N] [--json]`, and
+//! `segloc bench detect` (the perception front end, see `bench_detect.rs`).
 
 use super::print_json;
 use anyhow::{Context, Result};
@@ -28,16 +29,22 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// The perception front end in steady state: one process, one front end reused for
+    /// every frame; median / p90 / min per pair and per stage.
+    Detect(super::bench_detect::BenchDetectArgs),
 }
 
 /// Run a benchmark.
 pub fn run(cmd: &BenchCommand, config: &RelocalizeConfig) -> Result<i32> {
-    let BenchCommand::Associate {
-        problem,
-        repeat,
-        threads,
-        json,
-    } = cmd;
+    let (problem, repeat, threads, json) = match cmd {
+        BenchCommand::Associate {
+            problem,
+            repeat,
+            threads,
+            json,
+        } => (problem, repeat, threads, json),
+        BenchCommand::Detect(args) => return super::bench_detect::run(args),
+    };
     let p = read_problem(problem)?;
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {

@@ -77,7 +77,8 @@ pub fn run(args: &DetectArgs) -> Result<i32> {
     }
 }
 
-fn load_frontend_config(path: Option<&Path>) -> Result<FrontEndConfig> {
+/// The front-end settings from a TOML file, or the defaults.
+pub(super) fn load_frontend_config(path: Option<&Path>) -> Result<FrontEndConfig> {
     let Some(path) = path else {
         return Ok(FrontEndConfig::default());
     };

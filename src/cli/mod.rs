@@ -1,6 +1,7 @@
 //! Subcommands of the `segloc` binary, one file each.
 
 mod bench;
+mod bench_detect;
 mod config;
 mod demo;
 mod detect;
