@@ -35,13 +35,13 @@ pub struct HugePageAllocator;
 unsafe impl GlobalAlloc for HugePageAllocator {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         let ptr = System.alloc(layout);
-        advise(ptr, layout.size());
+        advise_large(ptr, layout.size());
         ptr
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         let ptr = System.alloc_zeroed(layout);
-        advise(ptr, layout.size());
+        advise_large(ptr, layout.size());
         ptr
     }
 
@@ -51,22 +51,34 @@ unsafe impl GlobalAlloc for HugePageAllocator {
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
         let new = System.realloc(ptr, layout, new_size);
-        advise(new, new_size);
+        advise_large(new, new_size);
         new
     }
 }
 
-/// Advises the 2 MiB-aligned interior of `[ptr, ptr + size)` to use huge pages.
-fn advise(ptr: *mut u8, size: usize) {
-    if ptr.is_null() || size < HUGE_PAGE_THRESHOLD {
+/// [`advise_huge_pages`] for allocations of at least [`HUGE_PAGE_THRESHOLD`] bytes.
+fn advise_large(ptr: *mut u8, size: usize) {
+    if size >= HUGE_PAGE_THRESHOLD {
+        advise_huge_pages(ptr, size);
+    }
+}
+
+/// Asks the kernel to back the 2 MiB-aligned interior of `[ptr, ptr + size)` with
+/// transparent huge pages, before the buffer is first touched: it then faults (and zeroes)
+/// 2 MiB at a time instead of 4 KiB. Only advice: a no-op off Linux, for a null pointer or
+/// a range holding no whole huge page, and an error from the kernel is ignored. `ptr` must
+/// point into a live allocation of at least `size` bytes (anything else is harmless to the
+/// program's memory, as `madvise` changes only how pages are backed).
+pub fn advise_huge_pages(ptr: *mut u8, size: usize) {
+    if ptr.is_null() {
         return;
     }
     let start = (ptr as usize).next_multiple_of(HUGE_PAGE);
     let end = (ptr as usize + size) / HUGE_PAGE * HUGE_PAGE;
     if end > start {
         #[cfg(target_os = "linux")]
-        // SAFETY: the range lies inside the live allocation just returned by `System`;
-        // MADV_HUGEPAGE changes only how the kernel backs it. A failure leaves it as it was.
+        // SAFETY: the range lies inside the caller's live allocation; MADV_HUGEPAGE changes
+        // only how the kernel backs it, never its contents. A failure leaves it as it was.
         unsafe {
             libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
         }

@@ -127,7 +127,7 @@ fn ensure_len<T: Copy + Default>(v: &mut Vec<T>, len: usize) {
     }
     *v = Vec::new();
     *v = vec![T::default(); len];
-    super::huge_pages::advise(v.as_mut_ptr() as *mut u8, len * std::mem::size_of::<T>());
+    crate::memory::advise_huge_pages(v.as_mut_ptr() as *mut u8, len * std::mem::size_of::<T>());
 }
 
 /// The rows of `rows` in the sweep's order.

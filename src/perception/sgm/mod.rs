@@ -19,7 +19,6 @@ use super::census::{census_bits, census_planes_into};
 use super::{DisparityMap, GrayImage, PerceptionError, StereoCamera};
 
 mod filters;
-mod huge_pages;
 mod matcher;
 #[cfg(test)]
 mod reference;
