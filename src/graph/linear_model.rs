@@ -243,9 +243,13 @@ impl LinearModel {
     /// elimination paths, and extends `(H₀⁻¹)_TT` by their rows and columns.
     fn add_columns(&mut self, fresh: &[usize]) -> Option<()> {
         let llt = self.system.supernodal_factor()?;
+        // All blocks first, so that a failure leaves the model as it was.
+        let blocks: Vec<usize> = fresh
+            .iter()
+            .map(|&v| self.block_of[v])
+            .collect::<Option<_>>()?;
         let old = self.touched.len();
-        for &v in fresh {
-            let b = self.block_of[v]?;
+        for (&v, &b) in fresh.iter().zip(&blocks) {
             self.columns.push(self.paths.forward_unit(llt, 6 * b, 6));
             self.touched.push(v);
         }
