@@ -320,7 +320,8 @@ def main():
     for key, label in (("odometry_append_ms", "append 1 pose + 1 odometry factor (consecutive)"),
                        ("loop_closure_append_ms", "append 1 pose + odometry + 1 loop closure (consecutive, batches included)"),
                        ("loop_closure_incremental_ms", "… of which incremental updates on the last linearisation"),
-                       ("loop_closure_batch_ms", "… of which batch relinearisations"),
+                       ("loop_closure_relinearized_ms", "… of which relinearisations (every factor relinearised, one Gauss–Newton step)"),
+                       ("loop_closure_batch_ms", "… of which batch re-optimisations"),
                        ("odometry_append_full_ms", "reference: append + forced full warm-started batch re-optimisation")):
         s = inc.get(key)
         if not s or s["median"] is None:
@@ -328,7 +329,7 @@ def main():
         lines.append(f"| {label} | {s['median']:.3f} | {s['p90']:.3f} | {s['max']:.3f} |")
     gap = inc["loop_closure_cost_gap"]
     diff = inc["loop_closure_max_position_diff_m"]
-    n_lc = inc["loop_closure_incremental"] + inc["loop_closure_batch"]
+    n_lc = inc["loop_closure_incremental"] + inc.get("loop_closure_relinearized", 0) + inc["loop_closure_batch"]
     lc = inc["loop_closure_append_ms"]
     lines += [
         "",
@@ -339,8 +340,10 @@ def main():
         "linearisation (old factors kept to second order, as in iSAM; a small dense problem over the "
         "touched and new variables, forward solves along the touched variables' elimination paths and one "
         "backward solve with the batch factor), "
-        f"{inc['loop_closure_batch']} were batch re-optimisations (first linearisation, more than 40 active "
-        "variables, or an old variable moved more than 0.1 from its linearisation point). Accuracy against a "
+        f"{inc.get('loop_closure_relinearized', 0)} relinearised every factor at the incremental estimate "
+        "and took one Gauss–Newton step of the whole graph (an old variable had moved more than 0.1 from its "
+        f"linearisation point), and {inc['loop_closure_batch']} were batch re-optimisations (more than 40 "
+        "active variables, or a relinearisation step that did not lower the cost). Accuracy against a "
         "full batch optimum of the same graph after every loop-closure append: relative cost gap median "
         f"{gap['median']:.1e}, max {gap['max']:.1e}; largest position difference median "
         f"{1e3 * diff['median']:.2f} mm, max {1e3 * diff['max']:.2f} mm. "
@@ -348,7 +351,7 @@ def main():
         + ("met" if inc["odometry_append_ms"]["p90"] <= 5 else "**not met**")
         + f"; loop-closure append median {lc['median']:.2f} ms, p90 {lc['p90']:.2f} ms "
         + ("(met)" if lc["p90"] <= 5 else ("(median met, p90 **not met**)" if lc["median"] <= 5 else "(**not met**)"))
-        + f", max {lc['max']:.1f} ms (a batch re-optimisation).",
+        + f", max {lc['max']:.1f} ms.",
         "",
     ]
     text = "\n".join(lines)

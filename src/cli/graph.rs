@@ -402,7 +402,11 @@ struct BenchOutput {
     loop_closure_incremental: usize,
     /// Times of the incremental loop-closure appends alone.
     loop_closure_incremental_ms: Summary,
-    /// Times of the loop-closure appends that relinearised by a batch.
+    /// Loop-closure appends that relinearised every factor and took one Gauss–Newton step.
+    loop_closure_relinearized: usize,
+    /// Their times.
+    loop_closure_relinearized_ms: Summary,
+    /// Times of the loop-closure appends that re-optimised by a batch.
     loop_closure_batch_ms: Summary,
     /// Loop-closure appends done by a batch re-optimisation.
     loop_closure_batch: usize,
@@ -482,8 +486,8 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
     // 2. One pose, its odometry and a loop closure back to a pose 40–90 steps earlier per
     //    update, consecutively (batches included whenever the updater decides on one).
     let mut loop_ms = Vec::new();
-    let mut methods = [0usize; 3];
-    let mut by_method: [Vec<f64>; 3] = Default::default();
+    let mut methods = [0usize; 4];
+    let mut by_method: [Vec<f64>; 4] = Default::default();
     let mut gaps = Vec::new();
     let mut pose_diffs = Vec::new();
     for k in 0..a.appends {
@@ -539,6 +543,10 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         loop_closure_incremental: methods[UpdateMethod::Incremental as usize],
         loop_closure_incremental_ms: summarise(std::mem::take(
             &mut by_method[UpdateMethod::Incremental as usize],
+        )),
+        loop_closure_relinearized: methods[UpdateMethod::Relinearized as usize],
+        loop_closure_relinearized_ms: summarise(std::mem::take(
+            &mut by_method[UpdateMethod::Relinearized as usize],
         )),
         loop_closure_batch_ms: summarise(std::mem::take(
             &mut by_method[UpdateMethod::Batch as usize],

@@ -7,16 +7,19 @@
 //! by that pose *is* the new optimum (the old factors' gradient was zero and the new one
 //! adds none) and nothing needs solving. Otherwise — a loop closure, a relocalization, a
 //! second constraint on a new pose — the estimate moves to the optimum of the graph with the
-//! old factors kept linearised at the last batch optimum (see `linear_model`): a small dense
-//! problem over the variables the new factors touch plus one triangular solve pair, a few
-//! milliseconds on a 5,000-pose graph. A batch re-optimisation of the whole graph (warm
-//! started, relinearising everything) runs instead when there is no linearisation yet, when
-//! an old variable has moved more than `relinearize_threshold` from its linearisation point,
-//! or when more than `max_active_variables` variables are active.
+//! old factors kept linearised at the last linearisation point (see `linear_model`): a
+//! small dense problem over the variables the new factors touch, forward solves along their
+//! elimination paths and one backward solve, a few milliseconds on a 5,000-pose graph. When
+//! that moves an old variable more than `relinearize_threshold` from its linearisation
+//! point, every factor is relinearised at the new estimate and one Gauss–Newton step of the
+//! whole graph is taken (repeated while the step itself is that large); that linearisation
+//! is the model of the next updates. A batch re-optimisation of the whole graph (warm
+//! started) runs when there is no linearisation yet, when more than `max_active_variables`
+//! variables are active, or when a relinearisation step does not lower the cost.
 
 use super::linear_model::LinearModel;
 use super::robust::RobustKernel;
-use super::solver::{OptimizationReport, SolverConfig};
+use super::solver::{take_analysis, OptimizationReport, SolverConfig};
 use super::{GraphError, PoseGraph};
 use nalgebra::{Isometry3, Matrix6};
 use serde::{Deserialize, Serialize};
@@ -36,8 +39,8 @@ pub struct IncrementalConfig {
     /// Re-run the batch once more variables than this are active (touched by factors added
     /// since the batch, or added since): the small problem is dense.
     pub max_active_variables: usize,
-    /// Re-run the batch (relinearise) once an old variable's step from its linearisation
-    /// point exceeds this in any tangent entry (radians or metres; iSAM2's default is 0.1).
+    /// Relinearise every factor once an old variable's step from its linearisation point
+    /// exceeds this in any tangent entry (radians or metres; iSAM2's default is 0.1).
     pub relinearize_threshold: f64,
 }
 
@@ -49,6 +52,10 @@ pub enum UpdateMethod {
     Skipped,
     /// Small problem on the last batch linearisation.
     Incremental,
+    /// Every factor relinearised at the incremental estimate and one Gauss–Newton step of
+    /// the whole graph taken (no full re-optimisation), when old variables had moved more
+    /// than `relinearize_threshold` from the last linearisation point.
+    Relinearized,
     /// Whole graph re-optimised.
     Batch,
 }
@@ -231,6 +238,24 @@ impl IncrementalGraph {
             }
         }
         let old_step_max = attempt.map_or(0.0, |u| u.old_step_max);
+        if let (Some(u), true) = (attempt, self.config.incremental) {
+            // The incremental estimate went too far from the linearisation point:
+            // relinearise there and take one Gauss–Newton step of the whole graph.
+            if let Some(cost) = self.relinearize()? {
+                self.settled = self.graph.num_factors();
+                self.settled_cost = cost;
+                return Ok(IncrementalReport {
+                    optimized: true,
+                    method: UpdateMethod::Relinearized,
+                    active_variables: u.active,
+                    old_step_max,
+                    new_factors,
+                    cost,
+                    time_ms: start.elapsed().as_secs_f64() * 1e3,
+                    report: None,
+                });
+            }
+        }
         self.model = None;
         let report = self.graph.optimize(&self.config.solver)?;
         self.converged = report.converged;
@@ -251,6 +276,45 @@ impl IncrementalGraph {
         })
     }
 }
+
+impl IncrementalGraph {
+    /// Linearises every factor at the current estimate (the model of later updates) and
+    /// moves to that model's minimiser, one Gauss–Newton step of the whole graph: what a
+    /// warm-started batch does from an incremental estimate, without linearising and
+    /// factorising once more for the model afterwards. While a step moves a variable by
+    /// more than the relinearisation threshold, the graph is linearised again where it
+    /// landed (at most [`RELINEARIZE_STEPS`] times), so the model stays close to its
+    /// linearisation point. Returns the new cost, or `None` (no model; the analysis kept in
+    /// the graph for the batch that follows) when a step does not lower the cost or the
+    /// steps do not settle.
+    fn relinearize(&mut self) -> Result<Option<f64>, GraphError> {
+        self.model = None;
+        let (structure, _) = take_analysis(&mut self.graph)?;
+        self.graph.cache = Some(structure);
+        for _ in 0..RELINEARIZE_STEPS {
+            let cost_before = self.graph.cost();
+            let Some(model) = LinearModel::build(&mut self.graph) else {
+                return Ok(None);
+            };
+            let previous = std::mem::replace(&mut self.graph.poses, model.gauss_newton_poses());
+            let cost = self.graph.cost();
+            if !(cost.is_finite() && cost <= cost_before) {
+                self.graph.poses = previous;
+                self.graph.cache = Some(model.into_structure());
+                return Ok(None);
+            }
+            if model.gauss_newton_step_max() <= self.config.relinearize_threshold {
+                self.model = Some(model);
+                return Ok(Some(cost));
+            }
+            self.graph.cache = Some(model.into_structure());
+        }
+        Ok(None)
+    }
+}
+
+/// Linearisations a relinearisation may take before it leaves the work to a batch.
+const RELINEARIZE_STEPS: usize = 3;
 
 #[cfg(test)]
 mod tests {
@@ -374,6 +438,54 @@ mod tests {
             }
         }
         assert!(incremental >= 4, "only {incremental} incremental updates");
+    }
+
+    /// With a tight relinearisation threshold a loop closure is absorbed by relinearising
+    /// every factor at the incremental estimate and stepping once (no batch), and lands on
+    /// the batch optimum.
+    #[test]
+    fn far_incremental_estimates_are_relinearised_without_a_batch() {
+        let (synth, graph) = truncated_synthetic(400, 30, 300);
+        let config = IncrementalConfig {
+            relinearize_threshold: 0.02,
+            ..IncrementalConfig::default()
+        };
+        let mut inc = IncrementalGraph::new(graph, config);
+        assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
+        let e = synth
+            .file
+            .edges
+            .iter()
+            .find(|e| e.from == 299 && e.to == 300)
+            .unwrap();
+        inc.add_odometry(299, 300, e.measured, e.information)
+            .unwrap();
+        let z = synth.truth[250].inv_mul(&synth.truth[300]);
+        inc.graph_mut()
+            .add_between(250, 300, z, e.information, RobustKernel::None)
+            .unwrap();
+        let r = inc.update().unwrap();
+        assert_eq!(r.method, UpdateMethod::Relinearized, "{r:?}");
+        let mut full = inc.graph().clone();
+        let batch = full
+            .optimize(&SolverConfig {
+                relative_tolerance: 1e-12,
+                absolute_tolerance: 0.0,
+                ..SolverConfig::default()
+            })
+            .unwrap();
+        let gap = (inc.graph().cost() - batch.final_cost) / batch.final_cost;
+        assert!((-1e-9..1e-6).contains(&gap), "gap {gap:e}");
+        // The next update starts from the new linearisation.
+        let e = synth
+            .file
+            .edges
+            .iter()
+            .find(|e| e.from == 300 && e.to == 301)
+            .unwrap();
+        inc.add_odometry(300, 301, e.measured, e.information)
+            .unwrap();
+        assert_eq!(inc.update().unwrap().method, UpdateMethod::Skipped);
     }
 
     /// A tiny chain where the incremental update must equal the exact optimum: with linear

@@ -22,10 +22,9 @@
 
 use super::factor_paths::{FactorPaths, PathColumns};
 use super::factors::Factor;
-use super::pose_graph::PoseGraph;
+use super::pose_graph::{PoseGraph, StructureCache};
 use super::se3;
 use super::solver::linearize;
-use super::structure::NormalEquations;
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix6, Vector6};
 use std::ops::AddAssign;
 
@@ -51,8 +50,8 @@ pub(crate) struct LinearModel {
     fixed: Vec<bool>,
     /// Factors in the batch.
     num_factors: usize,
-    /// Normal equations factored at `x₀`.
-    system: NormalEquations<6>,
+    /// The structure analysis, with the normal equations factored at `x₀`.
+    structure: StructureCache,
     /// Block column of each batch variable (`None` when held).
     block_of: Vec<Option<usize>>,
     /// Gradient at `x₀`.
@@ -80,15 +79,15 @@ impl LinearModel {
         if graph.factors.iter().any(|f| f.kernel().is_gnc()) {
             return None;
         }
-        let cache = graph.cache.take()?;
-        if cache.version != graph.structure_version {
+        let mut structure = graph.cache.take()?;
+        if structure.version != graph.structure_version {
             return None;
         }
-        let mut system = cache.system;
+        let system = &mut structure.system;
         if system.dim() == 0 {
             return None;
         }
-        let cost0 = linearize(&graph.factors, &graph.poses, &mut system, 0.0);
+        let cost0 = linearize(&graph.factors, &graph.poses, system, 0.0);
         if !system.factorize_damped(|_, _| 0.0) {
             return None;
         }
@@ -102,8 +101,8 @@ impl LinearModel {
             x0: graph.poses.clone(),
             fixed: graph.fixed_flags().to_vec(),
             num_factors: graph.factors.len(),
-            g0: system.gradient.clone(),
-            system,
+            g0: structure.system.gradient.clone(),
+            structure,
             block_of,
             delta_star,
             cost0,
@@ -112,6 +111,30 @@ impl LinearModel {
             columns: Vec::new(),
             covariance_tt: DMatrix::zeros(0, 0),
         })
+    }
+
+    /// The model's minimiser `x₀ ⊞ δ*`: one Gauss–Newton step of the whole graph from the
+    /// linearisation point.
+    pub fn gauss_newton_poses(&self) -> Vec<Isometry3<f64>> {
+        let mut poses = self.x0.clone();
+        for (v, blk) in self.block_of.iter().enumerate() {
+            if let Some(b) = *blk {
+                let d = Vector6::from_column_slice(&self.delta_star[6 * b..6 * b + 6]);
+                poses[v] = se3::retract(&self.x0[v], &d);
+            }
+        }
+        poses
+    }
+
+    /// Gives back the structure analysis (its numeric factor is this model's), to analyse
+    /// nothing again when the graph is relinearised with the same structure.
+    pub fn into_structure(self) -> StructureCache {
+        self.structure
+    }
+
+    /// Largest entry of the Gauss–Newton step `δ*` of the model.
+    pub fn gauss_newton_step_max(&self) -> f64 {
+        self.delta_star.iter().fold(0.0, |m, d| m.max(d.abs()))
     }
 
     /// Brings the estimates of `graph` to the optimum of the model with the factors added
@@ -198,11 +221,11 @@ impl LinearModel {
         // δ = H₀⁻¹(P_T μ − g₀) = δ* + L₀⁻ᵀ Σ_v (L₀⁻¹E_v) μ_v.
         let (e, _) = self.prior_residual(&poses, &target);
         let mu = &s * &e;
-        let mut rhs = vec![0.0; self.system.dim()];
+        let mut rhs = vec![0.0; self.structure.system.dim()];
         for (i, column) in self.columns.iter().enumerate() {
             column.scatter_add(&mu.as_slice()[6 * i..6 * i + 6], &mut rhs);
         }
-        if !self.system.backward_solve(&mut rhs) {
+        if !self.structure.system.backward_solve(&mut rhs) {
             return None;
         }
         for (d, star) in rhs.iter_mut().zip(&self.delta_star) {
@@ -242,7 +265,7 @@ impl LinearModel {
     /// Forward-solves `L₀⁻¹ E_v` of newly touched variables (six columns each) along their
     /// elimination paths, and extends `(H₀⁻¹)_TT` by their rows and columns.
     fn add_columns(&mut self, fresh: &[usize]) -> Option<()> {
-        let llt = self.system.supernodal_factor()?;
+        let llt = self.structure.system.supernodal_factor()?;
         // All blocks first, so that a failure leaves the model as it was.
         let blocks: Vec<usize> = fresh
             .iter()

@@ -82,7 +82,9 @@ pub(crate) fn optimize(
 /// Takes the structure analysis out of `graph`: the cached one if it is for the current
 /// structure, else a new one (components, gauge, ordering, symbolic factorisation) with the
 /// time it took.
-fn take_analysis(graph: &mut PoseGraph) -> Result<(StructureCache, Option<f64>), GraphError> {
+pub(crate) fn take_analysis(
+    graph: &mut PoseGraph,
+) -> Result<(StructureCache, Option<f64>), GraphError> {
     let version = graph.structure_version;
     if let Some(cache) = graph.cache.take().filter(|c| c.version == version) {
         return Ok((cache, None));
