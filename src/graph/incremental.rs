@@ -368,6 +368,38 @@ mod tests {
         (synth, graph)
     }
 
+    /// A copy of `inc`'s graph optimised to tight convergence, and its relative cost gap.
+    fn batch_gap(inc: &IncrementalGraph) -> (PoseGraph, f64) {
+        let mut full = inc.graph().clone();
+        let batch = full
+            .optimize(&SolverConfig {
+                relative_tolerance: 1e-12,
+                absolute_tolerance: 0.0,
+                ..SolverConfig::default()
+            })
+            .unwrap();
+        let gap = (inc.graph().cost() - batch.final_cost) / batch.final_cost;
+        (full, gap)
+    }
+
+    /// Appends pose `to` by the synthetic graph's odometry edge `to − 1 → to`; returns the
+    /// edge's information.
+    fn append_synthetic_odometry(
+        inc: &mut IncrementalGraph,
+        synth: &synthetic::SyntheticGraph,
+        to: u64,
+    ) -> Matrix6<f64> {
+        let e = synth
+            .file
+            .edges
+            .iter()
+            .find(|e| e.from + 1 == to && e.to == to)
+            .unwrap();
+        inc.add_odometry(e.from, e.to, e.measured, e.information)
+            .unwrap();
+        e.information
+    }
+
     #[test]
     fn odometry_appends_keep_the_optimum_without_solving() {
         let (_, graph) = truncated_synthetic(400, 30, 300);
@@ -416,16 +448,8 @@ mod tests {
             if r.method == UpdateMethod::Incremental {
                 incremental += 1;
             }
-            let mut full = inc.graph().clone();
-            let batch = full
-                .optimize(&SolverConfig {
-                    relative_tolerance: 1e-12,
-                    absolute_tolerance: 0.0,
-                    ..SolverConfig::default()
-                })
-                .unwrap();
+            let (full, gap) = batch_gap(&inc);
             let cost = inc.graph().cost();
-            let gap = (cost - batch.final_cost) / batch.final_cost;
             assert!((-1e-9..1e-4).contains(&gap), "update {id}: gap {gap:e}");
             // The model's cost estimate is close to the true cost.
             assert!((r.cost - cost).abs() < 1e-3 * cost, "{} vs {cost}", r.cost);
@@ -452,39 +476,17 @@ mod tests {
         };
         let mut inc = IncrementalGraph::new(graph, config);
         assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
-        let e = synth
-            .file
-            .edges
-            .iter()
-            .find(|e| e.from == 299 && e.to == 300)
-            .unwrap();
-        inc.add_odometry(299, 300, e.measured, e.information)
-            .unwrap();
+        let info = append_synthetic_odometry(&mut inc, &synth, 300);
         let z = synth.truth[250].inv_mul(&synth.truth[300]);
         inc.graph_mut()
-            .add_between(250, 300, z, e.information, RobustKernel::None)
+            .add_between(250, 300, z, info, RobustKernel::None)
             .unwrap();
         let r = inc.update().unwrap();
         assert_eq!(r.method, UpdateMethod::Relinearized, "{r:?}");
-        let mut full = inc.graph().clone();
-        let batch = full
-            .optimize(&SolverConfig {
-                relative_tolerance: 1e-12,
-                absolute_tolerance: 0.0,
-                ..SolverConfig::default()
-            })
-            .unwrap();
-        let gap = (inc.graph().cost() - batch.final_cost) / batch.final_cost;
+        let (_, gap) = batch_gap(&inc);
         assert!((-1e-9..1e-6).contains(&gap), "gap {gap:e}");
         // The next update starts from the new linearisation.
-        let e = synth
-            .file
-            .edges
-            .iter()
-            .find(|e| e.from == 300 && e.to == 301)
-            .unwrap();
-        inc.add_odometry(300, 301, e.measured, e.information)
-            .unwrap();
+        append_synthetic_odometry(&mut inc, &synth, 301);
         assert_eq!(inc.update().unwrap().method, UpdateMethod::Skipped);
     }
 
