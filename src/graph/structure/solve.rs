@@ -47,7 +47,6 @@ impl<const B: usize> NormalEquations<B> {
                 x.clear();
                 x.extend(step.iter().map(|&v| v as f32));
                 self.solve_f32(&mut x);
-                let b: Vec<f64> = step.to_vec();
                 for (s, &v) in step.iter_mut().zip(&x) {
                     *s = f64::from(v);
                 }
@@ -55,8 +54,8 @@ impl<const B: usize> NormalEquations<B> {
                     self.scratch_f32 = x;
                     return step.iter().all(|v| v.is_finite());
                 }
-                // One refinement: r = b − A x in double precision, then x += A⁻¹ r.
-                let mut residual = b;
+                // One refinement: r = −g − A x in double precision, then x += A⁻¹ r.
+                let mut residual: Vec<f64> = self.gradient.iter().map(|g| -g).collect();
                 self.sub_damped_times(step, &mut residual);
                 x.clear();
                 x.extend(residual.iter().map(|&v| v as f32));
