@@ -183,6 +183,49 @@ impl FactorPaths {
     }
 }
 
+/// Solves `Lᵀ x = z` in place, supernode by supernode from the root. On the factor of a pose
+/// chain, thousands of supernodes of a few columns each, a plain loop over each supernode's
+/// columns measured several times faster than faer's general supernodal solve, whose cost
+/// per supernode dominates there. Returns `false` for a non-finite result.
+pub(crate) fn backward_solve(llt: SupernodalLltRef<'_, usize, f64>, z: &mut [f64]) -> bool {
+    let symbolic = llt.symbolic();
+    if z.len() != symbolic.nrows() {
+        return false;
+    }
+    for s in (0..symbolic.n_supernodes()).rev() {
+        let sn = llt.supernode(s);
+        let l = sn.val();
+        let start = symbolic.supernode_begin()[s];
+        let size = symbolic.supernode_end()[s] - start;
+        let pattern = sn.pattern();
+        // Rows below the diagonal block belong to ancestors, solved already.
+        for j in 0..size {
+            let Some(col) = l.col(j).try_as_col_major() else {
+                return false;
+            };
+            let below: f64 = col.as_slice()[size..]
+                .iter()
+                .zip(pattern)
+                .map(|(v, &r)| v * z[r])
+                .sum();
+            z[start + j] -= below;
+        }
+        for j in (0..size).rev() {
+            let Some(col) = l.col(j).try_as_col_major() else {
+                return false;
+            };
+            let col = col.as_slice();
+            let above: f64 = col[j + 1..size]
+                .iter()
+                .zip(&z[start + j + 1..start + size])
+                .map(|(v, x)| v * x)
+                .sum();
+            z[start + j] = (z[start + j] - above) / col[j];
+        }
+    }
+    z.iter().all(|v| v.is_finite())
+}
+
 #[cfg(test)]
 mod tests {
     use crate::graph::components;

@@ -7,19 +7,20 @@
 //! by that pose *is* the new optimum (the old factors' gradient was zero and the new one
 //! adds none) and nothing needs solving. Otherwise — a loop closure, a relocalization, a
 //! second constraint on a new pose — the estimate moves to the optimum of the graph with the
-//! old factors kept linearised at the last linearisation point (see `linear_model`): a
-//! small dense problem over the variables the new factors touch, forward solves along their
-//! elimination paths and one backward solve, a few milliseconds on a 5,000-pose graph. When
-//! that moves an old variable more than `relinearize_threshold` from its linearisation
-//! point, every factor is relinearised at the new estimate and one Gauss–Newton step of the
-//! whole graph is taken (repeated while the step itself is that large); that linearisation
-//! is the model of the next updates. A batch re-optimisation of the whole graph (warm
-//! started) runs when there is no linearisation yet, when more than `max_active_variables`
-//! variables are active, or when a relinearisation step does not lower the cost.
+//! factors among settled variables kept linearised at the last linearisation point and the
+//! factors of a window of recent variables evaluated exactly (see `linear_model`): a sparse
+//! problem over the window and the settled variables it touches, forward solves along those
+//! variables' elimination paths and one backward solve, a few milliseconds on a 5,000-pose
+//! graph. When that moves a settled variable more than `relinearize_threshold` from its
+//! linearisation point, or the window or its boundary grows past its limit, the model is
+//! built again at the new estimate (the last `window_variables` free variables live) and the
+//! update repeated on it (while the settled variables still move that far); that model
+//! serves the next updates. A batch re-optimisation of the whole graph (warm started) runs
+//! when there is no model yet, or when a rebuilt model's update does not lower the cost.
 
-use super::linear_model::LinearModel;
+use super::linear_model::{LinearModel, ModelUpdate, UpdateLimits};
 use super::robust::RobustKernel;
-use super::solver::{take_analysis, OptimizationReport, SolverConfig};
+use super::solver::{OptimizationReport, SolverConfig};
 use super::{GraphError, PoseGraph};
 use nalgebra::{Isometry3, Matrix6};
 use serde::{Deserialize, Serialize};
@@ -36,10 +37,22 @@ pub struct IncrementalConfig {
     pub skip_gradient_tolerance: f64,
     /// Update on the last batch linearisation instead of re-optimising the whole graph.
     pub incremental: bool,
-    /// Re-run the batch once more variables than this are active (touched by factors added
-    /// since the batch, or added since): the small problem is dense.
-    pub max_active_variables: usize,
-    /// Relinearise every factor once an old variable's step from its linearisation point
+    /// Free variables (the most recent, in insertion order) whose factors are evaluated
+    /// exactly on every update, at least; the factors among the others are kept linearised.
+    /// A build extends the window back (leaving room for this many appends) to where the
+    /// fewest of its factors reach into the settled part.
+    pub window_variables: usize,
+    /// Gauss–Newton iterations on the window per update at most. One, as iSAM2 takes one
+    /// step per update: the next update continues from where this one stopped, and the
+    /// window's step is already nearly exact when the new factors are consistent with it.
+    pub window_iterations: usize,
+    /// Build the model again once the window, grown by appended poses, holds more free
+    /// variables than this.
+    pub max_window_variables: usize,
+    /// Build the model again once more settled variables than this are touched by factors
+    /// of the window: their marginal is a dense matrix.
+    pub max_boundary_variables: usize,
+    /// Build the model again once a settled variable's step from its linearisation point
     /// exceeds this in any tangent entry (radians or metres; iSAM2's default is 0.1).
     pub relinearize_threshold: f64,
 }
@@ -50,11 +63,13 @@ pub struct IncrementalConfig {
 pub enum UpdateMethod {
     /// The new factors leave the optimum unchanged; nothing was solved.
     Skipped,
-    /// Small problem on the last batch linearisation.
+    /// Window solved exactly on the last model, the settled variables moved on its
+    /// linearisation.
     Incremental,
-    /// Every factor relinearised at the incremental estimate and one Gauss–Newton step of
-    /// the whole graph taken (no full re-optimisation), when old variables had moved more
-    /// than `relinearize_threshold` from the last linearisation point.
+    /// Model built again at the incremental estimate (no full re-optimisation) and the
+    /// update repeated on it, when settled variables had moved more than
+    /// `relinearize_threshold` from the last linearisation point or the window or its
+    /// boundary had outgrown its limit.
     Relinearized,
     /// Whole graph re-optimised.
     Batch,
@@ -70,7 +85,10 @@ impl Default for IncrementalConfig {
             },
             skip_gradient_tolerance: 1e-9,
             incremental: true,
-            max_active_variables: 40,
+            window_variables: 100,
+            max_window_variables: 500,
+            window_iterations: 1,
+            max_boundary_variables: 40,
             relinearize_threshold: 0.1,
         }
     }
@@ -84,10 +102,11 @@ pub struct IncrementalReport {
     pub optimized: bool,
     /// How the update was done.
     pub method: UpdateMethod,
-    /// Active variables of an incremental update (0 otherwise).
+    /// Variables solved exactly in the last model update (window and boundary; 0 when none
+    /// was made).
     pub active_variables: usize,
-    /// Largest step entry of an old variable from its linearisation point in the last
-    /// incremental attempt (0 when none was made).
+    /// Largest step entry of a settled variable from its linearisation point in the last
+    /// model update (0 when none was made).
     pub old_step_max: f64,
     /// Factors added since the previous update.
     pub new_factors: usize,
@@ -110,7 +129,7 @@ pub struct IncrementalGraph {
     /// Cost of the settled factors at the current estimate.
     settled_cost: f64,
     converged: bool,
-    /// Linearisation of the last batch, when incremental updates are on.
+    /// Linearisation of the settled variables, when incremental updates are on.
     model: Option<LinearModel>,
 }
 
@@ -215,8 +234,9 @@ impl IncrementalGraph {
                     report: None,
                 });
             }
+            let limits = self.limits();
             if let (true, Some(model)) = (self.config.incremental, self.model.as_mut()) {
-                attempt = model.update(&mut self.graph, self.config.max_active_variables);
+                attempt = model.update(&mut self.graph, limits);
                 if let Some(u) = attempt {
                     if u.old_step_max <= self.config.relinearize_threshold {
                         self.settled = self.graph.num_factors();
@@ -232,25 +252,23 @@ impl IncrementalGraph {
                             report: None,
                         });
                     }
-                    // Far from the linearisation point: relinearise everything, starting
-                    // from the incremental estimate.
                 }
             }
         }
         let old_step_max = attempt.map_or(0.0, |u| u.old_step_max);
-        if let (Some(u), true) = (attempt, self.config.incremental) {
-            // The incremental estimate went too far from the linearisation point:
-            // relinearise there and take one Gauss–Newton step of the whole graph.
-            if let Some(cost) = self.relinearize()? {
+        if let (true, true) = (self.model.is_some(), self.config.incremental) {
+            // Settled variables moved too far from the linearisation point, or the window
+            // outgrew its limits: build the model again at the current estimate.
+            if let Some(u) = self.relinearize() {
                 self.settled = self.graph.num_factors();
-                self.settled_cost = cost;
+                self.settled_cost = u.cost;
                 return Ok(IncrementalReport {
                     optimized: true,
                     method: UpdateMethod::Relinearized,
                     active_variables: u.active,
                     old_step_max,
                     new_factors,
-                    cost,
+                    cost: u.cost,
                     time_ms: start.elapsed().as_secs_f64() * 1e3,
                     report: None,
                 });
@@ -262,7 +280,11 @@ impl IncrementalGraph {
         self.settled = self.graph.num_factors();
         self.settled_cost = report.final_cost;
         if self.config.incremental && report.converged {
-            self.model = LinearModel::build(&mut self.graph);
+            self.model = LinearModel::build(
+                &self.graph,
+                self.config.window_variables,
+                self.config.max_window_variables,
+            );
         }
         Ok(IncrementalReport {
             optimized: true,
@@ -278,42 +300,49 @@ impl IncrementalGraph {
 }
 
 impl IncrementalGraph {
-    /// Linearises every factor at the current estimate (the model of later updates) and
-    /// moves to that model's minimiser, one Gauss–Newton step of the whole graph: what a
-    /// warm-started batch does from an incremental estimate, without linearising and
-    /// factorising once more for the model afterwards. While a step moves a variable by
-    /// more than the relinearisation threshold, the graph is linearised again where it
-    /// landed (at most [`RELINEARIZE_STEPS`] times), so the model stays close to its
-    /// linearisation point. Returns the new cost, or `None` (no model; the analysis kept in
-    /// the graph for the batch that follows) when a step does not lower the cost or the
-    /// steps do not settle.
-    fn relinearize(&mut self) -> Result<Option<f64>, GraphError> {
-        self.model = None;
-        let (structure, _) = take_analysis(&mut self.graph)?;
-        self.graph.cache = Some(structure);
-        for _ in 0..RELINEARIZE_STEPS {
-            let cost_before = self.graph.cost();
-            let Some(model) = LinearModel::build(&mut self.graph) else {
-                return Ok(None);
-            };
-            let previous = std::mem::replace(&mut self.graph.poses, model.gauss_newton_poses());
-            let cost = self.graph.cost();
-            if !(cost.is_finite() && cost <= cost_before) {
-                self.graph.poses = previous;
-                self.graph.cache = Some(model.into_structure());
-                return Ok(None);
-            }
-            if model.gauss_newton_step_max() <= self.config.relinearize_threshold {
-                self.model = Some(model);
-                return Ok(Some(cost));
-            }
-            self.graph.cache = Some(model.into_structure());
+    fn limits(&self) -> UpdateLimits {
+        UpdateLimits {
+            max_boundary: self.config.max_boundary_variables,
+            max_window: self.config.max_window_variables,
+            iterations: self.config.window_iterations,
         }
-        Ok(None)
+    }
+
+    /// Builds the model again at the current estimate and updates on it, repeating while the
+    /// update moves a settled variable more than the relinearisation threshold (at most
+    /// [`RELINEARIZE_STEPS`] builds). Returns the update with the graph's true cost, or
+    /// `None` (no model, estimates unchanged) when a build or update fails or the cost does
+    /// not go down.
+    fn relinearize(&mut self) -> Option<ModelUpdate> {
+        self.model = None;
+        let start = self.graph.poses.clone();
+        let cost_start = self.graph.cost();
+        let limits = self.limits();
+        for _ in 0..RELINEARIZE_STEPS {
+            let built = LinearModel::build(
+                &self.graph,
+                self.config.window_variables,
+                self.config.max_window_variables,
+            );
+            let Some(mut model) = built else { break };
+            let Some(mut u) = model.update(&mut self.graph, limits) else {
+                break;
+            };
+            u.cost = self.graph.cost();
+            if !(u.cost.is_finite() && u.cost <= cost_start) {
+                break;
+            }
+            if u.old_step_max <= self.config.relinearize_threshold {
+                self.model = Some(model);
+                return Some(u);
+            }
+        }
+        self.graph.poses = start;
+        None
     }
 }
 
-/// Linearisations a relinearisation may take before it leaves the work to a batch.
+/// Model builds a relinearisation may take before it leaves the work to a batch.
 const RELINEARIZE_STEPS: usize = 3;
 
 #[cfg(test)]
@@ -464,14 +493,16 @@ mod tests {
         assert!(incremental >= 4, "only {incremental} incremental updates");
     }
 
-    /// With a tight relinearisation threshold a loop closure is absorbed by relinearising
-    /// every factor at the incremental estimate and stepping once (no batch), and lands on
-    /// the batch optimum.
+    /// With a tight relinearisation threshold a loop closure reaching past the window is
+    /// absorbed by building the model again at the incremental estimate (no batch), and
+    /// lands on the batch optimum.
     #[test]
     fn far_incremental_estimates_are_relinearised_without_a_batch() {
         let (synth, graph) = truncated_synthetic(400, 30, 300);
         let config = IncrementalConfig {
             relinearize_threshold: 0.02,
+            window_variables: 20,
+            window_iterations: 3,
             ..IncrementalConfig::default()
         };
         let mut inc = IncrementalGraph::new(graph, config);
@@ -491,22 +522,58 @@ mod tests {
     }
 
     /// A tiny chain where the incremental update must equal the exact optimum: with linear
-    /// (translation-only) factors the quadratic model is exact.
+    /// (translation-only) factors the quadratic model is exact, whether the closure lies in
+    /// the window or reaches into the settled part.
     #[test]
     fn incremental_update_is_exact_on_a_linear_problem() {
-        let mut inc = unit_chain(IncrementalConfig {
-            relinearize_threshold: 1.0,
+        for window in [1, 2, 100] {
+            let mut inc = unit_chain(IncrementalConfig {
+                relinearize_threshold: 1.0,
+                window_variables: window,
+                ..IncrementalConfig::default()
+            });
+            assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
+            close_unit_chain(&mut inc);
+            let r = inc.update().unwrap();
+            assert_eq!(r.method, UpdateMethod::Incremental, "window {window}");
+            let x4 = inc.graph().pose(4).unwrap().translation.x;
+            assert!((x4 - 3.6).abs() < 1e-9, "window {window}: {x4}");
+            let x2 = inc.graph().pose(2).unwrap().translation.x;
+            assert!((x2 - 1.8).abs() < 1e-9, "window {window}: {x2}");
+            assert!((r.cost - inc.graph().cost()).abs() < 1e-12);
+        }
+    }
+
+    /// Loop closures reaching past a small window into the settled part, and a window that
+    /// outgrows its limit: the updates stay incremental (the model is built again when the
+    /// window is full) and on the batch optimum.
+    #[test]
+    fn closures_into_the_settled_part_and_a_full_window() {
+        let (synth, graph) = truncated_synthetic(500, 30, 400);
+        let config = IncrementalConfig {
+            window_variables: 10,
+            max_window_variables: 14,
             ..IncrementalConfig::default()
-        });
+        };
+        let mut inc = IncrementalGraph::new(graph, config);
         assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
-        close_unit_chain(&mut inc);
-        let r = inc.update().unwrap();
-        assert_eq!(r.method, UpdateMethod::Incremental);
-        let x4 = inc.graph().pose(4).unwrap().translation.x;
-        assert!((x4 - 3.6).abs() < 1e-9, "{x4}");
-        let x2 = inc.graph().pose(2).unwrap().translation.x;
-        assert!((x2 - 1.8).abs() < 1e-9, "{x2}");
-        assert!((r.cost - inc.graph().cost()).abs() < 1e-12);
+        let mut methods = Vec::new();
+        for id in 400u64..412 {
+            let info = append_synthetic_odometry(&mut inc, &synth, id);
+            let back = id - 30;
+            let z = synth.truth[back as usize].inv_mul(&synth.truth[id as usize]);
+            inc.graph_mut()
+                .add_between(back, id, z, info, RobustKernel::None)
+                .unwrap();
+            let r = inc.update().unwrap();
+            methods.push(r.method);
+            let (_, gap) = batch_gap(&inc);
+            assert!((-1e-9..1e-4).contains(&gap), "update {id}: gap {gap:e}");
+            assert!((r.cost - inc.graph().cost()).abs() < 1e-3 * r.cost);
+        }
+        assert!(!methods.contains(&UpdateMethod::Batch), "{methods:?}");
+        assert!(methods.contains(&UpdateMethod::Relinearized), "{methods:?}");
+        assert!(methods.contains(&UpdateMethod::Incremental), "{methods:?}");
     }
 
     #[test]

@@ -66,6 +66,7 @@ mod solver_tests;
 mod structure;
 pub mod synthetic;
 pub mod toro;
+mod window_solve;
 
 pub use components::{Anchor, ComponentInfo};
 pub use error::GraphError;

@@ -3,6 +3,7 @@
 //! paths.
 
 use super::{NormalEquations, Precision};
+use crate::graph::factor_paths;
 use faer::dyn_stack::MemStack;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholeskyRaw};
@@ -107,21 +108,10 @@ impl<const B: usize> NormalEquations<B> {
 
     /// Solves `Lᵀ x = z` in place with the double-precision factor (the backward half of a
     /// solve). Returns `false` without a valid supernodal factor or for a non-finite result.
-    pub fn backward_solve(&mut self, z: &mut [f64]) -> bool {
-        let n = self.dim();
-        if z.len() != n {
-            return false;
+    pub fn backward_solve(&self, z: &mut [f64]) -> bool {
+        match self.supernodal_factor() {
+            Some(llt) => factor_paths::backward_solve(llt, z),
+            None => false,
         }
-        if self.factored != Some(Precision::Double) {
-            return false;
-        }
-        let SymbolicCholeskyRaw::Supernodal(symbolic) = self.symbolic.raw() else {
-            return false;
-        };
-        // Disjoint fields: the factor is read while the workspace is written.
-        let llt = SupernodalLltRef::new(symbolic, &self.l_values);
-        let x = MatMut::from_column_major_slice_mut(z, n, 1);
-        llt.l_transpose_solve_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.workspace));
-        z.iter().all(|v| v.is_finite())
     }
 }
