@@ -19,8 +19,9 @@
 //! * `structure` + `ordering`: the sparse normal equations, laid out once in AMD order with a
 //!   symbolic Cholesky that is reused until the graph's structure changes.
 //! * `initialize`: chordal initialisation ([`Initialization::Chordal`]).
-//! * [`IncrementalGraph`]: online use, skipping solves that cannot change the optimum and
-//!   updating on the last batch linearisation (`linear_model`) between batches.
+//! * [`IncrementalGraph`]: online use, skipping solves that cannot change the optimum,
+//!   solving a window of recent poses exactly (`window_solve`) and keeping the settled part
+//!   on its last linearisation (`linear_model`) between rebuilds.
 //! * [`file`](mod@file), [`g2o`], [`toro`]: g2o 3D and TORO 3D files; [`synthetic`] and [`metrics`]
 //!   for tests and benchmarks.
 //!
