@@ -317,7 +317,12 @@ impl IncrementalGraph {
         self.model = None;
         let start = self.graph.poses.clone();
         let cost_start = self.graph.cost();
-        let limits = self.limits();
+        // Rebuilds are rare and follow the largest corrections: iterate the window to
+        // convergence there.
+        let limits = UpdateLimits {
+            iterations: self.config.window_iterations.max(REBUILD_ITERATIONS),
+            ..self.limits()
+        };
         for _ in 0..RELINEARIZE_STEPS {
             let built = LinearModel::build(
                 &self.graph,
@@ -344,6 +349,9 @@ impl IncrementalGraph {
 
 /// Model builds a relinearisation may take before it leaves the work to a batch.
 const RELINEARIZE_STEPS: usize = 3;
+
+/// Gauss–Newton iterations on the window, at most, in the update that follows a rebuild.
+const REBUILD_ITERATIONS: usize = 6;
 
 #[cfg(test)]
 mod tests {
@@ -574,6 +582,53 @@ mod tests {
         assert!(!methods.contains(&UpdateMethod::Batch), "{methods:?}");
         assert!(methods.contains(&UpdateMethod::Relinearized), "{methods:?}");
         assert!(methods.contains(&UpdateMethod::Incremental), "{methods:?}");
+    }
+
+    /// A second, unanchored chain (a session before its first relocalization) is held by
+    /// its first pose as in the batch, so updates on the anchored chain stay incremental;
+    /// the factor that joins the chains makes the holding be decided again.
+    #[test]
+    fn an_unanchored_component_is_held_like_the_batch_holds_it() {
+        let (synth, mut graph) = truncated_synthetic(400, 30, 300);
+        let step = Isometry3::translation(1.0, 0.0, 0.0);
+        let info = Matrix6::identity() * 100.0;
+        graph
+            .add_pose(10_000, Isometry3::translation(0.0, 50.0, 0.0))
+            .unwrap();
+        for id in 10_001..10_005u64 {
+            let initial = graph.pose(id - 1).unwrap() * step;
+            graph.add_pose(id, initial).unwrap();
+            graph
+                .add_between(id - 1, id, step, info, RobustKernel::None)
+                .unwrap();
+        }
+        let mut inc = IncrementalGraph::new(graph, IncrementalConfig::default());
+        assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
+        let mut methods = Vec::new();
+        for id in 300u64..310 {
+            let info = append_synthetic_odometry(&mut inc, &synth, id);
+            let z = synth.truth[id as usize - 50].inv_mul(&synth.truth[id as usize]);
+            inc.graph_mut()
+                .add_between(id - 50, id, z, info, RobustKernel::None)
+                .unwrap();
+            methods.push(inc.update().unwrap().method);
+            let (_, gap) = batch_gap(&inc);
+            assert!((-1e-9..1e-4).contains(&gap), "update {id}: gap {gap:e}");
+        }
+        // The first closure corrects a metre of drift (a rebuild); none needs a batch.
+        assert!(!methods.contains(&UpdateMethod::Batch), "{methods:?}");
+        assert!(methods.contains(&UpdateMethod::Incremental), "{methods:?}");
+        // Join the chains: the second one is now anchored through the first.
+        let to_b = Isometry3::translation(0.0, 10.0, 0.0);
+        inc.graph_mut()
+            .add_between(309, 10_000, to_b, info, RobustKernel::None)
+            .unwrap();
+        let r = inc.update().unwrap();
+        assert_ne!(r.method, UpdateMethod::Incremental, "{r:?}");
+        let (full, gap) = batch_gap(&inc);
+        assert!((-1e-9..1e-6).contains(&gap), "gap {gap:e}");
+        let b0 = inc.graph().pose(10_000).unwrap().translation.vector;
+        assert!((b0 - full.pose(10_000).unwrap().translation.vector).norm() < 1e-3);
     }
 
     #[test]

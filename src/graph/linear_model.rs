@@ -22,6 +22,7 @@
 //! moves more than a threshold from `x₀` (iSAM2's relinearisation threshold), or the
 //! window or boundary grows large.
 
+use super::components;
 use super::factor_paths::{FactorPaths, PathColumns};
 use super::factors::Factor;
 use super::pose_graph::PoseGraph;
@@ -99,6 +100,9 @@ pub(crate) struct LinearModel {
     x0: Vec<Isometry3<f64>>,
     /// Fixed flags at the build; a change needs a new build.
     fixed: Vec<bool>,
+    /// Held variables at the build: the fixed ones and the first variable of every
+    /// component without an anchor, which the batch holds too.
+    held: Vec<bool>,
     /// Factors at the build.
     num_factors: usize,
     /// Settled variables (their factors among themselves are frozen).
@@ -127,7 +131,8 @@ impl LinearModel {
         }
         let n = graph.poses.len();
         let fixed = graph.fixed_flags();
-        let split = choose_split(graph, window, max_window);
+        let (_, held) = components::analyse(graph.keys(), fixed, &graph.factors);
+        let split = choose_split(graph, &held, window, max_window);
         let is_frozen = |f: &Factor| {
             let [a, b] = f.vars();
             a < split && (f.is_unary() || b < split)
@@ -144,15 +149,16 @@ impl LinearModel {
                 live.push(i);
             }
         }
-        let held: Vec<bool> = (0..n).map(|v| fixed[v] || !settled[v]).collect();
-        let frozen = if held.iter().all(|&h| h) {
+        let not_frozen: Vec<bool> = (0..n).map(|v| held[v] || !settled[v]).collect();
+        let frozen = if not_frozen.iter().all(|&h| h) {
             None
         } else {
-            Some(Frozen::build(&held, &frozen_factors, &graph.poses)?)
+            Some(Frozen::build(&not_frozen, &frozen_factors, &graph.poses)?)
         };
         Some(Self {
             x0: graph.poses.clone(),
             fixed: fixed.to_vec(),
+            held,
             num_factors: graph.factors.len(),
             settled,
             live,
@@ -175,10 +181,13 @@ impl LinearModel {
         {
             return None;
         }
-        if graph.factors[self.num_factors..]
-            .iter()
-            .any(|f| f.kernel().is_gnc())
-        {
+        // A new factor on a variable the build held to anchor its component may anchor the
+        // component otherwise: the holding must be decided again.
+        let auto_held = |v: usize| v < n_old && self.held[v] && !self.fixed[v];
+        if graph.factors[self.num_factors..].iter().any(|f| {
+            let [a, b] = f.vars();
+            f.kernel().is_gnc() || auto_held(a) || (!f.is_unary() && auto_held(b))
+        }) {
             return None;
         }
         let live: Vec<usize> = (self.live.iter().copied())
@@ -186,7 +195,10 @@ impl LinearModel {
             .collect();
         let fixed = graph.fixed_flags();
         let window: Vec<usize> = (0..graph.poses.len())
-            .filter(|&v| !fixed[v] && (v >= n_old || !self.settled[v]))
+            .filter(|&v| match v < n_old {
+                true => !self.held[v] && !self.settled[v],
+                false => !fixed[v],
+            })
             .collect();
         if window.len() > limits.max_window {
             return None;
@@ -298,13 +310,12 @@ impl LinearModel {
 /// in the window instead of straddling the split, where every closure across it would add a
 /// variable to the dense boundary and pull settled variables away from their
 /// linearisation point.
-fn choose_split(graph: &PoseGraph, window: usize, max_window: usize) -> usize {
-    let fixed = graph.fixed_flags();
+fn choose_split(graph: &PoseGraph, held: &[bool], window: usize, max_window: usize) -> usize {
     let longest = window.max(max_window.saturating_sub(window));
     let mut candidates = Vec::new();
     let mut free = 0;
     for s in (0..graph.poses.len()).rev() {
-        if fixed[s] {
+        if held[s] {
             continue;
         }
         free += 1;
@@ -327,7 +338,7 @@ fn choose_split(graph: &PoseGraph, window: usize, max_window: usize) -> usize {
             let [a, b] = f.vars();
             (a.min(b), a.max(b))
         })
-        .filter(|&(a, b)| b >= earliest && a < b && !fixed[a])
+        .filter(|&(a, b)| b >= earliest && a < b && !held[a])
         .collect();
     let mut best = (usize::MAX, 0);
     let mut boundary = Vec::new();
