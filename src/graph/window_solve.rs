@@ -19,6 +19,14 @@ use nalgebra::{DMatrix, DVector, Isometry3, Matrix6, Vector6};
 /// Halvings of a step that does not lower the cost before the iteration gives up.
 const BACKTRACKS: usize = 3;
 
+/// A step with an entry beyond this (metres or radians) is far outside the linearisation
+/// it came from — a first relocalization moving a whole session, two chains joined — and
+/// the solve iterates on past its iteration budget, up to [`MAX_ITERATIONS`].
+const LARGE_STEP: f64 = 1.0;
+
+/// Gauss–Newton iterations at most, large steps included.
+const MAX_ITERATIONS: usize = 10;
+
 /// The frozen factors' marginal on the boundary variables.
 #[derive(Clone, Debug)]
 pub(crate) struct BoundaryPrior {
@@ -178,8 +186,9 @@ impl<'a> WindowProblem<'a> {
         (live_cost, prior_cost)
     }
 
-    /// Gauss–Newton from `poses` (only the problem's variables change), at most
-    /// `iterations` steps, each shortened until it lowers the cost. Returns the live
+    /// Gauss–Newton from `poses` (only the problem's variables change): `iterations` steps
+    /// at most, and more while the last was larger than [`LARGE_STEP`], each shortened until
+    /// it lowers the cost. Returns the live
     /// factors' cost at the result; `None` when the system is singular or not even a
     /// shortened first step lowers the cost.
     pub fn solve(
@@ -193,7 +202,7 @@ impl<'a> WindowProblem<'a> {
         }
         let mut step = vec![0.0; self.system.dim()];
         let mut live_cost = 0.0;
-        for iteration in 0..iterations.max(1) {
+        for iteration in 0..MAX_ITERATIONS {
             let (live, prior) = self.assemble(factors, poses);
             live_cost = live;
             let cost = live + prior;
@@ -224,7 +233,8 @@ impl<'a> WindowProblem<'a> {
             };
             live_cost = live;
             let step_max = step.iter().fold(0.0f64, |m, s| m.max(s.abs())) * scale;
-            if step_max < 1e-9 || cost - new_cost <= 1e-12 * new_cost.max(1e-300) {
+            let converged = step_max < 1e-9 || cost - new_cost <= 1e-12 * new_cost.max(1e-300);
+            if converged || (iteration + 1 >= iterations && step_max <= LARGE_STEP) {
                 break;
             }
         }
