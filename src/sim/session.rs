@@ -274,15 +274,18 @@ impl<'a> SessionSim<'a> {
             &mut self.rng,
         );
         let est = tick.session_from_rover;
+        self.obstacles.start_frame();
         for b in &obs.boulders {
             let p = est * b.p_rover;
             self.obstacles.add_rock(Point2::new(p.x, p.y), b.radius_m);
         }
-        // the ground the cameras saw (session frame)
+        // unconfirmed rocks in view that were not detected again count a miss; the ground
+        // the cameras saw (session frame)
         for camera in cameras() {
             let cam = Pose2::from_isometry3(&(est * camera.rover_from_camera));
             let half_fov = (CX_PX / FOCAL_PX).atan();
             let c = &self.config.sensors;
+            self.obstacles.record_view(cam, half_fov, c.min_range_m);
             self.seen.mark_view(
                 cam,
                 half_fov,
@@ -318,6 +321,8 @@ impl<'a> SessionSim<'a> {
         // the rover stands on its own footprint: that ground is clear
         self.seen
             .mark_disc(pose.x, pose.y, self.config.collision_radius_m);
+        self.obstacles
+            .set_rover_position(Point2::new(pose.x, pose.y));
         let command = self
             .navigator
             .command(prev.time_s, pose, &self.obstacles, Some(&self.seen));
