@@ -40,7 +40,8 @@ pub struct ArcPlannerConfig {
     pub body_clearance_m: f64,
     /// Arcs must stay within |x|, |y| ≤ this in the nav frame, metres.
     pub site_half_extent_m: f64,
-    /// Lateral offset of the extra seen-ground checks beside each arc point, metres.
+    /// Lateral offset of the extra seen-ground checks beside each arc point, metres: the
+    /// wheels' outer edges (0.27 m from the centre line) and a margin.
     pub unseen_check_offset_m: f64,
     /// Arc points closer than this to the rover skip the seen-ground check, metres.
     pub known_radius_m: f64,
@@ -67,7 +68,7 @@ impl Default for ArcPlannerConfig {
             clearance_m: 0.75,
             body_clearance_m: 0.65,
             site_half_extent_m: 19.0,
-            unseen_check_offset_m: 0.6,
+            unseen_check_offset_m: 0.4,
             known_radius_m: 1.0,
             min_horizon_s: 8.0,
             fallback_slows_down: true,
