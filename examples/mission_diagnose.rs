@@ -139,6 +139,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "session {n} (reached, skipped, backups) {:?}",
                 log.navigation_counts
             );
+            // seconds in each mode, and driving at a reduced speed
+            let mut modes = std::collections::BTreeMap::new();
+            for t in &log.ticks {
+                let slow = t.command.speed_mps > 0.0 && t.command.speed_mps < 0.4;
+                *modes
+                    .entry(format!("{:?}{}", t.mode, if slow { " slow" } else { "" }))
+                    .or_insert(0.0) += 0.05;
+            }
+            eprintln!("session {n} seconds by mode {modes:?}");
             let mut last = None;
             for t in log.ticks.iter().step_by(20) {
                 if last != Some(t.mode) || t.time_s % 20.0 < 1e-9 {
