@@ -139,7 +139,13 @@ impl ObstacleMemory {
     /// up to an obstacle.
     pub fn record_view(&mut self, camera: Pose2, half_fov_rad: f64, min_depth_m: f64) {
         let range = self.config.refute_max_range_m;
-        if !camera.x.is_finite() || !camera.y.is_finite() || range.is_nan() || range <= 0.0 {
+        if self.config.refute_after_views == 0
+            || !camera.x.is_finite()
+            || !camera.y.is_finite()
+            || range.is_nan()
+            || range <= 0.0
+        {
+            // no refutation: unconfirmed rocks keep their detections (and never count)
             return;
         }
         let c = Point2::new(camera.x, camera.y);
@@ -337,7 +343,14 @@ mod tests {
             refute_after_views: 0,
             ..ObstacleConfig::default()
         });
+        old.start_frame();
         assert!(old.add_rock(rock, 0.1));
         assert_eq!(count_near(&old, rock), 0);
+        // … and are not refuted: a second detection after a view confirms them
+        old.start_frame();
+        old.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
+        old.start_frame();
+        assert!(old.add_rock(rock, 0.1));
+        assert_eq!(count_near(&old, rock), 1);
     }
 }
