@@ -139,6 +139,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "session {n} (reached, skipped, backups) {:?}",
                 log.navigation_counts
             );
+            // seconds in each mode, and driving at a reduced speed
+            let mut modes = std::collections::BTreeMap::new();
+            for t in &log.ticks {
+                let slow = t.command.speed_mps > 0.0 && t.command.speed_mps < 0.4;
+                *modes
+                    .entry(format!("{:?}{}", t.mode, if slow { " slow" } else { "" }))
+                    .or_insert(0.0) += 0.05;
+            }
+            eprintln!("session {n} seconds by mode {modes:?}");
             let mut last = None;
             for t in log.ticks.iter().step_by(20) {
                 if last != Some(t.mode) || t.time_s % 20.0 < 1e-9 {
@@ -185,6 +194,45 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "session {n} t {:.1} rock {i} r {:.3} top above ground {:.3} mode {:?} seen {:?}",
                     t.time_s, rock.radius_m, rock.center.z + rock.radius_m - ground, t.mode, seen
                 );
+                // the 20 s before the hit, once a second: where the rock was relative to
+                // the rover (true poses), whether a camera saw it and what the rover did
+                for f in log
+                    .frames
+                    .iter()
+                    .filter(|f| f.time_s <= t.time_s && f.time_s >= t.time_s - 20.0)
+                {
+                    let tick = &log.ticks[f.tick];
+                    let q = tick.world_from_rover.inverse() * rock.center;
+                    let det: Vec<String> = f
+                        .boulders
+                        .iter()
+                        .filter(|b| b.rock == Some(i))
+                        .map(|b| format!("{:?} r{:.3}", b.camera, b.radius_m))
+                        .collect();
+                    // the front camera's line of sight to the rock's upper face
+                    let cam = tick.world_from_rover
+                        * segloc::sim::sensors::cameras()[0].rover_from_camera;
+                    let origin = nalgebra::Point3::from(cam.translation.vector);
+                    let target =
+                        rock.center + nalgebra::Vector3::new(0.0, 0.0, 0.5 * rock.radius_m);
+                    let to = target - origin;
+                    let ray = moon
+                        .cast_ray(&origin, &(to / to.norm()), to.norm() + rock.radius_m, None)
+                        .map(|h| {
+                            format!("{:?} at {:.2} of {:.2}", h.target, h.distance_m, to.norm())
+                        });
+                    eprintln!("      front ray {ray:?}");
+                    eprintln!(
+                        "    t {:.0} rock at range {:.2} bearing {:.0} deg, mode {:?} cmd {:.2} {:.2} detected {:?}",
+                        f.time_s,
+                        q.x.hypot(q.y),
+                        q.y.atan2(q.x).to_degrees(),
+                        tick.mode,
+                        tick.command.speed_mps,
+                        tick.command.yaw_rate_rps,
+                        det
+                    );
+                }
             }
         }
     }

@@ -40,7 +40,8 @@ pub struct ArcPlannerConfig {
     pub body_clearance_m: f64,
     /// Arcs must stay within |x|, |y| ≤ this in the nav frame, metres.
     pub site_half_extent_m: f64,
-    /// Lateral offset of the extra seen-ground checks beside each arc point, metres.
+    /// Lateral offset of the extra seen-ground checks beside each arc point, metres: the
+    /// wheels' outer edges (0.27 m from the centre line) and a margin.
     pub unseen_check_offset_m: f64,
     /// Arc points closer than this to the rover skip the seen-ground check, metres.
     pub known_radius_m: f64,
@@ -49,6 +50,11 @@ pub struct ArcPlannerConfig {
     /// touches something while a shorter one leads out, and the rover otherwise turns on
     /// the spot there for the rest of the session. Equal to `horizon_s`: no fallback.
     pub min_horizon_s: f64,
+    /// In the fallback, halve the *speed* instead of the horizon (down to the same shortest
+    /// arc, `speed_mps · min_horizon_s`): the arcs shrink alike, but the rover approaches
+    /// ground it has not seen (past a crest, say) slowly, so the cameras get more frames
+    /// of it before the rover is there.
+    pub fallback_slows_down: bool,
 }
 
 impl Default for ArcPlannerConfig {
@@ -62,9 +68,10 @@ impl Default for ArcPlannerConfig {
             clearance_m: 0.75,
             body_clearance_m: 0.65,
             site_half_extent_m: 19.0,
-            unseen_check_offset_m: 0.6,
+            unseen_check_offset_m: 0.4,
             known_radius_m: 1.0,
             min_horizon_s: 8.0,
+            fallback_slows_down: true,
         }
     }
 }
@@ -290,11 +297,22 @@ impl ArcPlannerConfig {
             }
         }
         if best.is_none() && self.horizon_s > self.min_horizon_s + 1e-9 {
-            let shorter = ArcPlannerConfig {
-                horizon_s: (0.5 * self.horizon_s).max(self.min_horizon_s),
+            let half = (0.5 * self.horizon_s).max(self.min_horizon_s);
+            if !self.fallback_slows_down {
+                let shorter = ArcPlannerConfig {
+                    horizon_s: half,
+                    ..self.clone()
+                };
+                return shorter.choose(pose, goal, scene);
+            }
+            // the same arcs, driven over the whole horizon at the reduced speed (the
+            // horizon's factor is carried by `min_horizon_s`)
+            let slower = ArcPlannerConfig {
+                speed_mps: self.speed_mps * half / self.horizon_s,
+                min_horizon_s: self.min_horizon_s * self.horizon_s / half,
                 ..self.clone()
             };
-            return shorter.choose(pose, goal, scene);
+            return slower.choose(pose, goal, scene);
         }
         best.map(|b| ArcChoice {
             free_arcs: free,
@@ -383,6 +401,45 @@ mod tests {
         };
         assert!(c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));
         assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.4, &s));
+    }
+
+    #[test]
+    fn falls_back_to_shorter_arcs_slowly_or_quickly() {
+        // a ring of rocks 2.7 m around: no 3.6 m arc is free, 1.8 m ones are
+        let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+        for k in 0..72 {
+            let a = k as f64 * std::f64::consts::TAU / 72.0;
+            let p = Point2::new(2.7 * a.cos(), 2.7 * a.sin());
+            m.add_rock(p, 0.1);
+            m.add_rock(p, 0.1);
+        }
+        let s = scene(&m);
+        let slow = ArcPlannerConfig {
+            speed_mps: 0.45,
+            max_yaw_rate_rps: 0.2,
+            min_horizon_s: 2.0,
+            ..ArcPlannerConfig::default()
+        };
+        let a = slow
+            .choose(Pose2::default(), Point2::new(5.0, 0.0), &s)
+            .unwrap();
+        assert!((a.speed_mps - 0.225).abs() < 1e-12, "{a:?}");
+        let quick = ArcPlannerConfig {
+            fallback_slows_down: false,
+            ..slow.clone()
+        };
+        let b = quick
+            .choose(Pose2::default(), Point2::new(5.0, 0.0), &s)
+            .unwrap();
+        assert!((b.speed_mps - 0.45).abs() < 1e-12, "{b:?}");
+        // no fallback at all
+        let none = ArcPlannerConfig {
+            min_horizon_s: 8.0,
+            ..slow
+        };
+        assert!(none
+            .choose(Pose2::default(), Point2::new(5.0, 0.0), &s)
+            .is_none());
     }
 
     #[test]

@@ -90,6 +90,11 @@ pub struct SessionConfig {
     pub navigator: NavigatorConfig,
     /// Which detected rocks are obstacles.
     pub obstacles: ObstacleConfig,
+    /// Ground counts as seen (for the planner) within this distance of a stereo ground
+    /// point, metres: only ground the cameras actually measured, not what lies hidden
+    /// behind a crest or in a dip inside their view cone. 0: the whole view cone (out to the
+    /// ground points' range) counts as seen.
+    pub seen_ground_point_radius_m: f64,
     /// Waypoint pattern.
     pub waypoints: WaypointConfig,
 }
@@ -108,6 +113,7 @@ impl Default for SessionConfig {
             vo: VoConfig::default(),
             navigator: NavigatorConfig::default(),
             obstacles: ObstacleConfig::default(),
+            seen_ground_point_radius_m: 0.35,
             waypoints: WaypointConfig::default(),
         }
     }
@@ -274,21 +280,33 @@ impl<'a> SessionSim<'a> {
             &mut self.rng,
         );
         let est = tick.session_from_rover;
+        self.obstacles.start_frame();
         for b in &obs.boulders {
             let p = est * b.p_rover;
             self.obstacles.add_rock(Point2::new(p.x, p.y), b.radius_m);
         }
-        // the ground the cameras saw (session frame)
+        // unconfirmed rocks in view that were not detected again count a miss; the ground
+        // the cameras saw (session frame)
+        let seen_radius_m = self.config.seen_ground_point_radius_m;
         for camera in cameras() {
             let cam = Pose2::from_isometry3(&(est * camera.rover_from_camera));
             let half_fov = (CX_PX / FOCAL_PX).atan();
             let c = &self.config.sensors;
-            self.seen.mark_view(
-                cam,
-                half_fov,
-                c.min_range_m,
-                c.max_range_m.min(c.ground_max_range_m),
-            );
+            self.obstacles.record_view(cam, half_fov, c.min_range_m);
+            if seen_radius_m <= 0.0 {
+                self.seen.mark_view(
+                    cam,
+                    half_fov,
+                    c.min_range_m,
+                    c.max_range_m.min(c.ground_max_range_m),
+                );
+            }
+        }
+        if seen_radius_m > 0.0 {
+            for g in &obs.ground {
+                let p = est * g.p_rover;
+                self.seen.mark_disc(p.x, p.y, seen_radius_m);
+            }
         }
         for q in &obs.lander_points_rover {
             let p = est * q;
@@ -318,6 +336,8 @@ impl<'a> SessionSim<'a> {
         // the rover stands on its own footprint: that ground is clear
         self.seen
             .mark_disc(pose.x, pose.y, self.config.collision_radius_m);
+        self.obstacles
+            .set_rover_position(Point2::new(pose.x, pose.y));
         let command = self
             .navigator
             .command(prev.time_s, pose, &self.obstacles, Some(&self.seen));
