@@ -347,7 +347,7 @@ def main():
         "settled pose), "
         f"{inc.get('loop_closure_relinearized', 0)} built the model again at the incremental estimate "
         "(a settled variable had moved more than 0.1 from its linearisation point, or the window, growing "
-        "with every appended pose, had passed 300 poses or its boundary 40 variables), and "
+        "with every appended pose, had passed 500 poses or its boundary 40 variables), and "
         f"{inc['loop_closure_batch']} were batch re-optimisations (no model could be built, or a rebuilt "
         "model's update did not lower the cost). Accuracy against a "
         "full batch optimum of the same graph after every loop-closure append: relative cost gap median "
