@@ -467,12 +467,7 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         Some(r) => (r.time_ms, r.iterations, r.factors),
         None => (batch.time_ms, 0, inc.graph().num_factors()),
     };
-    let odometry: Vec<_> = synth
-        .file
-        .edges
-        .iter()
-        .filter(|e| e.to == e.from + 1)
-        .collect();
+    let odometry = synth.odometry();
     let mut next = n;
     // 1. Odometry only: one pose and its odometry factor per update.
     let mut odo_ms = Vec::new();

@@ -72,12 +72,7 @@ fn append_synthetic_odometry(
     synth: &synthetic::SyntheticGraph,
     to: u64,
 ) -> Matrix6<f64> {
-    let e = synth
-        .file
-        .edges
-        .iter()
-        .find(|e| e.from + 1 == to && e.to == to)
-        .unwrap();
+    let e = synth.odometry()[(to - 1) as usize];
     inc.add_odometry(e.from, e.to, e.measured, e.information)
         .unwrap();
     e.information
@@ -111,12 +106,7 @@ fn incremental_loop_closures_match_the_batch_optimum() {
     let (synth, graph) = truncated_synthetic(700, 40, 600);
     let mut inc = IncrementalGraph::new(graph, IncrementalConfig::default());
     assert_eq!(inc.update().unwrap().method, UpdateMethod::Batch);
-    let odometry: Vec<_> = synth
-        .file
-        .edges
-        .iter()
-        .filter(|e| e.to == e.from + 1)
-        .collect();
+    let odometry = synth.odometry();
     let mut incremental = 0;
     for id in 600u64..615 {
         let e = odometry[(id - 1) as usize];

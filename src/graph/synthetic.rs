@@ -56,6 +56,17 @@ pub struct SyntheticGraph {
     pub file: GraphFile,
 }
 
+impl SyntheticGraph {
+    /// The odometry edges (`i → i + 1`), in order: entry `i` leads from pose `i` to `i + 1`.
+    pub fn odometry(&self) -> Vec<&FileEdge> {
+        let mut edges: Vec<&FileEdge> = (self.file.edges.iter())
+            .filter(|e| e.to == e.from + 1)
+            .collect();
+        edges.sort_by_key(|e| e.from);
+        edges
+    }
+}
+
 fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     // Box–Muller; 1 − u keeps the logarithm finite.
     let u: f64 = 1.0 - rng.random::<f64>();
