@@ -118,6 +118,8 @@ pub(crate) struct LinearModel {
     columns: Vec<PathColumns>,
     /// `(H₀⁻¹)_TT` over the boundary, grown as variables join it.
     covariance_tt: DMatrix<f64>,
+    /// The frozen factors' marginal on the boundary, recomputed when the boundary grows.
+    prior: BoundaryPrior,
 }
 
 impl LinearModel {
@@ -166,6 +168,7 @@ impl LinearModel {
             touched: Vec::new(),
             columns: Vec::new(),
             covariance_tt: DMatrix::zeros(0, 0),
+            prior: BoundaryPrior::default(),
         })
     }
 
@@ -210,13 +213,13 @@ impl LinearModel {
         if !fresh.is_empty() {
             self.add_columns(&fresh)?;
         }
-        let prior = self.boundary_prior()?;
-        let mut problem = WindowProblem::new(graph, &live, &window, &prior)?;
+        let prior = &self.prior;
+        let mut problem = WindowProblem::new(graph, &live, &window, prior)?;
         let mut poses = graph.poses.clone();
         let live_cost = problem.solve(&graph.factors, &mut poses, limits.iterations)?;
         let active = window.len() + self.touched.len();
         let (old_step_max, q) = match &self.frozen {
-            Some(frozen) => settle(frozen, &self.x0, &self.columns, &prior, &mut poses)?,
+            Some(frozen) => settle(frozen, &self.x0, &self.columns, prior, &mut poses)?,
             None => (0.0, 0.0),
         };
         let cost0 = self.frozen.as_ref().map_or(0.0, |f| f.cost0);
@@ -249,7 +252,8 @@ impl LinearModel {
     }
 
     /// Forward-solves `L₀⁻¹ E_v` of new boundary variables (six columns each) along their
-    /// elimination paths, and extends `(H₀⁻¹)_TT` by their rows and columns.
+    /// elimination paths, extends `(H₀⁻¹)_TT` by their rows and columns and computes the
+    /// boundary's marginal again.
     fn add_columns(&mut self, fresh: &[usize]) -> Option<()> {
         let frozen = self.frozen.as_ref()?;
         let llt = frozen.system.supernodal_factor()?;
@@ -274,19 +278,14 @@ impl LinearModel {
             }
         }
         self.covariance_tt = m;
+        self.prior = self.boundary_prior()?;
         Some(())
     }
 
     /// The frozen factors' marginal on the boundary: `S = ((H₀⁻¹)_TT)⁻¹` around `x₀ ⊞ δ*`.
     fn boundary_prior(&self) -> Option<BoundaryPrior> {
-        let Some(frozen) = &self.frozen else {
-            return Some(BoundaryPrior::default());
-        };
-        let information = if self.touched.is_empty() {
-            DMatrix::zeros(0, 0)
-        } else {
-            self.covariance_tt.clone().cholesky()?.inverse()
-        };
+        let frozen = self.frozen.as_ref()?;
+        let information = self.covariance_tt.clone().cholesky()?.inverse();
         let target = self
             .touched
             .iter()
@@ -306,10 +305,10 @@ impl LinearModel {
 /// Where the window of a build starts: at least the last `window` free variables, extended
 /// back (by as many as leave `window` appends of room before `max_window`) where that
 /// removes boundary variables — settled variables sharing a factor with the window — each
-/// worth [`BOUNDARY_WEIGHT`] window variables. A stretch of trajectory dense with loop closures then lies wholly
-/// in the window instead of straddling the split, where every closure across it would add a
-/// variable to the dense boundary and pull settled variables away from their
-/// linearisation point.
+/// worth [`BOUNDARY_WEIGHT`] window variables. A stretch of trajectory dense with loop
+/// closures then lies wholly in the window instead of straddling the split, where every
+/// closure across it would add a variable to the dense boundary and pull settled variables
+/// away from their linearisation point.
 fn choose_split(graph: &PoseGraph, held: &[bool], window: usize, max_window: usize) -> usize {
     let longest = window.max(max_window.saturating_sub(window));
     let mut candidates = Vec::new();
