@@ -267,19 +267,16 @@ impl<const B: usize> NormalEquations<B> {
         weight: &SMatrix<f64, B, B>,
         residual: &SVector<f64, B>,
     ) {
+        self.add_factor_gradient(factor_index, jac_a, jac_b, weight, residual);
         let s = self.slots[factor_index];
-        let wr = weight * residual;
-        let a_free = s.block_a != HELD;
         let b_free = s.block_b != HELD;
-        let jta_w = a_free.then(|| jac_a.transpose() * weight);
+        let jta_w = (s.block_a != HELD).then(|| jac_a.transpose() * weight);
         if let Some(ref jta_w) = jta_w {
             self.add_diag_block(s.block_a, &(jta_w * jac_a));
-            self.add_gradient(s.block_a, &(jac_a.transpose() * wr));
         }
         if b_free {
             let jtb_w = jac_b.transpose() * weight;
             self.add_diag_block(s.block_b, &(jtb_w * jac_b));
-            self.add_gradient(s.block_b, &(jac_b.transpose() * wr));
         }
         if let (Some(jta_w), true) = (jta_w, b_free) {
             self.add_cross_block(&s, &(jta_w * jac_b));
@@ -315,14 +312,9 @@ impl<const B: usize> NormalEquations<B> {
         weight: &SMatrix<f64, B, B>,
         residual: &SVector<f64, B>,
     ) {
-        let s = self.slots[factor_index];
         let wr = weight * residual;
-        if s.block_a != HELD {
-            self.add_gradient(s.block_a, &(jac_a.transpose() * wr));
-        }
-        if s.block_b != HELD {
-            self.add_gradient(s.block_b, &(jac_b.transpose() * wr));
-        }
+        let (ga, gb) = (jac_a.transpose() * wr, jac_b.transpose() * wr);
+        self.add_gradient_blocks(factor_index, &ga, &gb);
     }
 
     /// Adds precomputed gradient blocks `g_a`, `g_b` of one factor (`g_b` is ignored for
