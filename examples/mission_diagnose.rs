@@ -241,7 +241,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t2 = true_poses(&s2.log);
     let est: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &s1.poses), (&s2.log, &s2.poses)];
     let tru: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &t1), (&s2.log, &t2)];
-    let secs = 2.0 * config.seconds_per_session;
+    let secs: f64 = config.session_seconds().iter().sum();
     let m_est = maps::build_maps(&est, &truth, secs, &config)?;
     let m_tru = maps::build_maps(&tru, &truth, secs, &config)?;
     // the optimised poses with the true height: how much of the loss is z

@@ -275,7 +275,7 @@ struct Reference {
 fn close_loop(
     log: &SessionLog,
     config: &MissionConfig,
-    graph: &mut TrajectoryGraph,
+    graph: &TrajectoryGraph,
     reference: &Reference,
     recent: std::ops::Range<usize>,
 ) -> Result<ClosureResult, MissionError> {

@@ -366,13 +366,13 @@ pub fn run_mission_with_progress(
     config.validate()?;
     let started = Instant::now();
     let moon = Moon::generate(&config.moon, seed)?;
-    let min_rock = config.session.collision_min_rock_radius_m;
-    let clear = |s: [f64; 3]| {
+    let clear = |s: [f64; 3], session: &SessionConfig| {
+        let min_rock = session.collision_min_rock_radius_m;
         let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
         [x, y, s[2]]
     };
-    let start_1 = clear(config.start_1);
-    let start_2 = clear(config.start_2);
+    let start_1 = clear(config.start_1, &config.session);
+    let start_2 = clear(config.start_2, config.session_2());
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
 

@@ -160,10 +160,7 @@ impl TrajectoryGraph {
         kernel: RobustKernel,
     ) -> Result<usize, GraphError> {
         if !self.has_prior_frame {
-            let odom_from_rover = self
-                .graph
-                .pose(k as u64)
-                .unwrap_or_else(Isometry3::identity);
+            let odom_from_rover = self.pose_or_identity(k);
             self.graph
                 .add_frame(PRIOR_FRAME, odom_from_rover * prior_from_rover.inverse())?;
             self.has_prior_frame = true;
@@ -271,13 +268,8 @@ impl TrajectoryGraph {
         for _ in 0..rounds {
             // the poses were optimised with the current correction: the estimate is of the
             // total bias seen from the raw measurements
-            let poses: Vec<Isometry3<f64>> = (0..self.frames)
-                .map(|k| {
-                    self.graph
-                        .pose(k as u64)
-                        .unwrap_or_else(Isometry3::identity)
-                })
-                .collect();
+            let poses: Vec<Isometry3<f64>> =
+                (0..self.frames).map(|k| self.pose_or_identity(k)).collect();
             self.bias = estimate_bias(&self.steps, &poses, &weights, &prior);
             self.rebuild(config)?;
             self.optimize()?;
@@ -290,10 +282,7 @@ impl TrajectoryGraph {
     fn rebuild(&mut self, config: &super::MissionConfig) -> Result<(), GraphError> {
         let mut graph = PoseGraph::new();
         for k in 0..self.frames {
-            let pose = self
-                .graph
-                .pose(k as u64)
-                .unwrap_or_else(Isometry3::identity);
+            let pose = self.pose_or_identity(k);
             graph.add_pose(k as u64, pose)?;
         }
         graph.fix(0)?;
@@ -399,13 +388,7 @@ impl TrajectoryGraph {
             .odom_from_prior()
             .map_or_else(Isometry3::identity, |f| f.inverse());
         (0..self.frames)
-            .map(|k| {
-                prior_from_odom
-                    * self
-                        .graph
-                        .pose(k as u64)
-                        .unwrap_or_else(Isometry3::identity)
-            })
+            .map(|k| prior_from_odom * self.pose_or_identity(k))
             .collect()
     }
 }
