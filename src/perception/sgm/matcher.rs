@@ -62,14 +62,22 @@ pub(super) struct MatchInput<'a> {
     pub textured: &'a [bool],
 }
 
+impl MatchInput<'_> {
+    /// The largest sum one row sweep (its 2 or 4 path directions) can aggregate for a pixel
+    /// and disparity: what decides the lane width, and half the bound of the two sweeps'
+    /// total.
+    fn sweep_max(&self) -> u32 {
+        let per_sweep = if self.config.paths == 8 { 4 } else { 2 };
+        per_sweep * (self.max_cost as u32 + self.config.p2 as u32)
+    }
+}
+
 impl RowMatcher {
     /// Disparities of every pixel into `out` (`w h`, NaN-filled; NaN stays where no
     /// reliable match is found).
     pub(super) fn run(&mut self, input: &MatchInput, out: &mut [f32]) {
-        let c = input.config;
-        let per_sweep = if c.paths == 8 { 4u32 } else { 2 };
         ensure_len(&mut self.costs, input.w * input.h * input.nd);
-        if per_sweep * (input.max_cost as u32 + c.p2 as u32) <= u8::MAX as u32 {
+        if input.sweep_max() <= u8::MAX as u32 {
             self.narrow.run(input, &mut self.costs, &mut self.rows, out);
         } else {
             self.wide.run(input, &mut self.costs, &mut self.rows, out);
@@ -230,8 +238,7 @@ fn finish_half_generic<L: Lane>(
 ) {
     let (w, nd, c) = (input.w, input.nd, input.config);
     let (best_rev, sum) = row_scratch;
-    let per_sweep = if c.paths == 8 { 4 } else { 2 };
-    let max_sum = 2 * per_sweep * (input.max_cost as u32 + c.p2 as u32);
+    let max_sum = 2 * input.sweep_max();
     let start = rows.start;
     for y in in_sweep_order(sweep, rows) {
         let cells = (y - start) * w * nd..(y - start + 1) * w * nd;
