@@ -10,55 +10,20 @@ use super::GrayImage;
 /// Bit k is set when the k-th neighbour (row-major, centre skipped) is strictly brighter
 /// than the centre. Outside the image, coordinates are clamped to the border.
 pub fn census_transform(image: &GrayImage, radius: usize) -> Vec<u64> {
-    let mut out = Vec::new();
-    census_transform_into(image, radius, &mut out);
-    out
-}
-
-/// [`census_transform`] into `out` (resized to the image), reusing its memory.
-pub fn census_transform_into(image: &GrayImage, radius: usize, out: &mut Vec<u64>) {
     let (w, h) = (image.width, image.height);
-    out.clear();
-    out.resize(w * h, 0);
+    let mut out = vec![0u64; w * h];
     let shifted = vec![0u8; w];
     out.par_chunks_mut(w.max(1))
         .enumerate()
         .for_each_with(shifted, |shifted, (y, row)| {
             census_row(image, radius, y, row, shifted)
         });
+    out
 }
 
 /// The census strings of row `y` into `row` (zeroed); `shifted` is scratch of one row.
-fn census_row(image: &GrayImage, radius: usize, y: usize, row: &mut [u64], shifted: &mut [u8]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { census_row_avx2(image, radius, y, row, shifted) };
-    }
-    census_row_generic(image, radius, y, row, shifted)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn census_row_avx2(
-    image: &GrayImage,
-    radius: usize,
-    y: usize,
-    row: &mut [u64],
-    shifted: &mut [u8],
-) {
-    census_row_generic(image, radius, y, row, shifted)
-}
-
 /// Neighbour by neighbour over the whole row, so the inner loop vectorises.
-#[inline(always)]
-fn census_row_generic(
-    image: &GrayImage,
-    radius: usize,
-    y: usize,
-    row: &mut [u64],
-    shifted: &mut [u8],
-) {
+fn census_row(image: &GrayImage, radius: usize, y: usize, row: &mut [u64], shifted: &mut [u8]) {
     let r = radius.min(3) as isize;
     let (w, h) = (image.width, image.height);
     let centre = &image.data[y * w..(y + 1) * w];
