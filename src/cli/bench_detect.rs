@@ -5,9 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use segloc::perception::{read_gray_png, FrontEnd, FrontEndTiming, GeometricSegmenter, GrayImage};
+use segloc::perception::{FrontEnd, FrontEndTiming, GeometricSegmenter, GrayImage};
 use serde_json::{json, Value};
 
+use super::detect::read_stereo_pair;
 use super::print_json;
 
 /// Arguments of `segloc bench detect`.
@@ -162,11 +163,7 @@ fn load_pairs(args: &BenchDetectArgs) -> Result<Vec<Pair>> {
     names
         .into_iter()
         .map(|(name, l, r)| {
-            let left = read_gray_png(&l)?;
-            let right = read_gray_png(&r)?;
-            if (left.width, left.height) != (right.width, right.height) {
-                bail!("{}: left and right differ in size", name);
-            }
+            let (left, right) = read_stereo_pair(&l, &r)?;
             Ok(Pair { name, left, right })
         })
         .collect()

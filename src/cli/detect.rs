@@ -105,12 +105,8 @@ fn make_segmenter(args: &DetectArgs, config: &FrontEndConfig) -> Result<Box<dyn 
     }
 }
 
-fn detect_pair(
-    args: &DetectArgs,
-    front_end: &mut FrontEnd,
-    left: &Path,
-    right: &Path,
-) -> Result<i32> {
+/// Reads a stereo pair of grayscale PNGs; an error names both files when their sizes differ.
+pub(super) fn read_stereo_pair(left: &Path, right: &Path) -> Result<(GrayImage, GrayImage)> {
     let left_image = read_gray_png(left)?;
     let right_image = read_gray_png(right)?;
     if (left_image.width, left_image.height) != (right_image.width, right_image.height) {
@@ -124,6 +120,16 @@ fn detect_pair(
             right_image.height
         );
     }
+    Ok((left_image, right_image))
+}
+
+fn detect_pair(
+    args: &DetectArgs,
+    front_end: &mut FrontEnd,
+    left: &Path,
+    right: &Path,
+) -> Result<i32> {
+    let (left_image, right_image) = read_stereo_pair(left, right)?;
     front_end
         .config()
         .camera
