@@ -253,10 +253,9 @@ impl MissionConfig {
 fn coverage_session() -> SessionConfig {
     let mut session = SessionConfig {
         waypoints: crate::planning::waypoints::WaypointConfig::lac_coverage(),
-        ..SessionConfig::default()
+        ..spiral_session()
     };
     session.navigator.arcs.speed_mps = 0.45;
-    session.navigator.arcs.min_horizon_s = MISSION_MIN_ARC_HORIZON_S;
     session
 }
 
