@@ -134,16 +134,16 @@ fn loop_closures(
                 fixed_frame: Some(0),
                 min_observations: 1,
             };
-            let (record, closure) = close_loop(log, config, graph, &reference, first..k + 1)?;
-            gate.submit(record, closure, &mut attempts, graph, config)?;
+            let closure = close_loop(log, config, graph, &reference, first..k + 1, &mut attempts)?;
+            gate.submit(closure, &mut attempts, graph, config)?;
         }
         let reference = Reference {
             frames: 0..old_end,
             fixed_frame: None,
             min_observations: config.fusion.min_observations,
         };
-        let (record, closure) = close_loop(log, config, graph, &reference, first..k + 1)?;
-        gate.submit(record, closure, &mut attempts, graph, config)?;
+        let closure = close_loop(log, config, graph, &reference, first..k + 1, &mut attempts)?;
+        gate.submit(closure, &mut attempts, graph, config)?;
     }
     Ok(attempts)
 }
@@ -174,26 +174,17 @@ struct ClosureGate {
 }
 
 impl ClosureGate {
-    /// Record `record` and, if the relocalizer accepted (`closure`), gate it; admitted
-    /// closures are added to the graph and the graph re-optimised.
+    /// Gate a closure the relocalizer accepted, if any; admitted closures are added to the
+    /// graph (their attempts in `attempts` marked accepted) and the graph re-optimised.
     fn submit(
         &mut self,
-        record: Attempt,
-        closure: Option<(usize, usize, Isometry3<f64>, nalgebra::Matrix6<f64>)>,
-        attempts: &mut Vec<Attempt>,
+        closure: Option<Closure>,
+        attempts: &mut [Attempt],
         graph: &mut TrajectoryGraph,
         config: &MissionConfig,
     ) -> Result<(), MissionError> {
-        attempts.push(record);
-        let Some((j, k, j_from_k, information)) = closure else {
+        let Some(c) = closure else {
             return Ok(());
-        };
-        let c = Closure {
-            j,
-            k,
-            j_from_k,
-            information,
-            attempt: attempts.len() - 1,
         };
         let admitted = if config.gate_relocalizations {
             self.admit(c, graph, config)
@@ -272,13 +263,16 @@ struct Reference {
     min_observations: u32,
 }
 
+/// Relocalizes the recent frames' submap against `reference`'s map; records the attempt in
+/// `attempts` and returns the closure when the relocalizer accepted it.
 fn close_loop(
     log: &SessionLog,
     config: &MissionConfig,
     graph: &TrajectoryGraph,
     reference: &Reference,
     recent: std::ops::Range<usize>,
-) -> Result<ClosureResult, MissionError> {
+    attempts: &mut Vec<Attempt>,
+) -> Result<Option<Closure>, MissionError> {
     let odometry = graph.poses_in_prior();
     let fusion = FusionConfig {
         min_observations: reference.min_observations,
@@ -310,7 +304,8 @@ fn close_loop(
         Ok(r) => r,
         Err(e) => {
             record.refusal = Some(format!("error: {e}"));
-            return Ok((record, None));
+            attempts.push(record);
+            return Ok(None);
         }
     };
     record.inliers = reloc.inliers.len();
@@ -321,7 +316,8 @@ fn close_loop(
                 .as_ref()
                 .map_or_else(|| "refused".to_string(), |r| r.to_string()),
         );
-        return Ok((record, None));
+        attempts.push(record);
+        return Ok(None);
     };
     // the earlier frame nearest the matched landmarks of the old map, and the recent frame
     // nearest the matched landmarks of the submap (least drift relative to them)
@@ -348,12 +344,12 @@ fn close_loop(
     let ad = se3::adjoint(&odometry[k]);
     let information =
         ad.transpose() * reloc.information * ad * config.relocalization_information_scale;
-    Ok((record, Some((j, k, j_from_k, information))))
+    attempts.push(record);
+    Ok(Some(Closure {
+        j,
+        k,
+        j_from_k,
+        information,
+        attempt: attempts.len() - 1,
+    }))
 }
-
-/// A loop-closure attempt's record and, when the relocalizer accepted, the closure
-/// (earlier frame, recent frame, `j_from_k`, information).
-type ClosureResult = (
-    Attempt,
-    Option<(usize, usize, Isometry3<f64>, nalgebra::Matrix6<f64>)>,
-);
