@@ -256,7 +256,7 @@ impl IncrementalGraph {
             }
         }
         let old_step_max = attempt.map_or(0.0, |u| u.old_step_max);
-        if let (true, true) = (self.model.is_some(), self.config.incremental) {
+        if self.model.is_some() && self.config.incremental {
             // Settled variables moved too far from the linearisation point, or the window
             // outgrew its limits: build the model again at the current estimate.
             if let Some(u) = self.relinearize() {
