@@ -9,7 +9,10 @@
 //! visible face (pulled `face_bias_fraction` × radius toward the camera) with stereo noise
 //! ([`crate::sim::stereo_noise`]). Spurious detections land on random ground in view.
 //! Ground points are stereo points on whatever the rays through random pixels below the
-//! horizon hit (terrain or rock, the lander excluded), with the same noise.
+//! horizon hit (terrain or rock, the lander excluded), with the same noise. Ground farther
+//! than `ground_max_range_m` (up to `far_ground_max_range_m`) lies in a band of rows just
+//! below the horizon; [`observe_far_ground`] samples that band from its own random stream,
+//! so that how far the height map looks changes nothing else the cameras report.
 
 use crate::sim::ipex::{
     BACK_LEFT_CAMERA_M, CX_PX, CY_PX, FOCAL_PX, FRONT_LEFT_CAMERA_M, IMAGE_HEIGHT_PX,
@@ -51,6 +54,11 @@ pub struct SensorConfig {
     pub ground_points_per_camera: usize,
     /// Farthest ground point (depth), metres.
     pub ground_max_range_m: f64,
+    /// Rays per camera and frame through the band of rows just below the horizon, for ground
+    /// points beyond `ground_max_range_m` ([`observe_far_ground`]; 0: none).
+    pub far_ground_points_per_camera: usize,
+    /// Farthest of those far ground points (depth), metres.
+    pub far_ground_max_range_m: f64,
     /// Error (1 σ per axis) of the IMU's gravity direction, radians.
     pub gravity_sigma_rad: f64,
     /// Spacing of the points sampled on the lander's sides, metres.
@@ -71,6 +79,8 @@ impl Default for SensorConfig {
             stereo: StereoNoiseConfig::default(),
             ground_points_per_camera: 250,
             ground_max_range_m: 5.0,
+            far_ground_points_per_camera: 100,
+            far_ground_max_range_m: 10.0,
             gravity_sigma_rad: 0.001,
             lander_point_spacing_m: 0.3,
         }
@@ -198,6 +208,38 @@ pub fn observe(
     out
 }
 
+/// Ground points beyond `ground_max_range_m` and within `far_ground_max_range_m`, from all
+/// cameras: rays through random pixels of the rows where flat ground that far appears (with
+/// room for the rover's tilt), the same stereo noise. `rng` is a stream of its own, apart from
+/// the one [`observe`] draws from.
+pub fn observe_far_ground(
+    moon: &Moon,
+    world_from_rover: &Isometry3<f64>,
+    config: &SensorConfig,
+    rng: &mut ChaCha8Rng,
+) -> Vec<GroundObservation> {
+    let mut out = Vec::new();
+    if config.far_ground_points_per_camera == 0
+        || config.far_ground_max_range_m <= config.ground_max_range_m
+    {
+        return out;
+    }
+    for camera in cameras() {
+        let world_from_camera = world_from_rover * camera.rover_from_camera;
+        let cam = ViewContext {
+            moon,
+            config,
+            camera,
+            world_from_camera,
+            camera_from_world: world_from_camera.inverse(),
+            origin: Point3::from(world_from_camera.translation.vector),
+        };
+        let candidates = cam.rocks_within(config.far_ground_max_range_m);
+        cam.far_ground_points(&candidates, rng, &mut out);
+    }
+    out
+}
+
 struct ViewContext<'a> {
     moon: &'a Moon,
     config: &'a SensorConfig,
@@ -211,8 +253,12 @@ impl ViewContext<'_> {
     /// Rocks that may appear in (or block rays of) this camera: within range and inside the
     /// image once their radius is allowed for.
     fn rocks_in_view(&self) -> Vec<usize> {
-        let reach = self.config.max_range_m.max(self.config.ground_max_range_m)
-            + self.moon.max_rock_radius_m();
+        self.rocks_within(self.config.max_range_m.max(self.config.ground_max_range_m))
+    }
+
+    /// Rocks within `range_m` (plus the largest rock radius) that may appear in the image.
+    fn rocks_within(&self, range_m: f64) -> Vec<usize> {
+        let reach = range_m + self.moon.max_rock_radius_m();
         let mut out = Vec::new();
         self.moon
             .for_each_rock_near(self.origin.x, self.origin.y, reach, |i, rock| {
@@ -290,8 +336,19 @@ impl ViewContext<'_> {
         max_depth_m: f64,
         rng: &mut ChaCha8Rng,
     ) -> Option<(Vector3<f64>, RayTarget)> {
+        self.random_ray_in_rows(candidates, CY_PX + 1.0..IMAGE_HEIGHT_PX, max_depth_m, rng)
+    }
+
+    /// A ray through a random pixel in `rows` and what it hits within `max_depth_m`.
+    fn random_ray_in_rows(
+        &self,
+        candidates: &[usize],
+        rows: std::ops::Range<f64>,
+        max_depth_m: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Option<(Vector3<f64>, RayTarget)> {
         let u = rng.random_range(0.0..IMAGE_WIDTH_PX);
-        let v = rng.random_range(CY_PX + 1.0..IMAGE_HEIGHT_PX);
+        let v = rng.random_range(rows);
         let ray_cam = pixel_ray(u, v);
         let dir = self.world_from_camera.rotation * ray_cam;
         let max_m = max_depth_m / ray_cam.x;
@@ -339,23 +396,65 @@ impl ViewContext<'_> {
         out: &mut Vec<GroundObservation>,
     ) {
         let c = self.config;
-        for _ in 0..c.ground_points_per_camera {
+        let rows = CY_PX + 1.0..IMAGE_HEIGHT_PX;
+        let depths_m = (0.0, c.ground_max_range_m);
+        self.sample_ground(
+            candidates,
+            rows,
+            depths_m,
+            c.ground_points_per_camera,
+            rng,
+            out,
+        );
+    }
+
+    /// `rays` rays through random pixels in `rows`; those that hit the terrain (the
+    /// segmentation labels lander and rock pixels: only ground pixels give height points, the
+    /// LAC's cell height is the terrain's, rocks excluded) at a depth within `depths_m`
+    /// (exclusive, inclusive) give a stereo point.
+    fn sample_ground(
+        &self,
+        candidates: &[usize],
+        rows: std::ops::Range<f64>,
+        depths_m: (f64, f64),
+        rays: usize,
+        rng: &mut ChaCha8Rng,
+        out: &mut Vec<GroundObservation>,
+    ) {
+        for _ in 0..rays {
             let Some((p_cam, target)) =
-                self.random_ground_ray(candidates, c.ground_max_range_m, rng)
+                self.random_ray_in_rows(candidates, rows.clone(), depths_m.1, rng)
             else {
                 continue;
             };
-            // the segmentation labels lander and rock pixels: only ground pixels give height
-            // points (the LAC's cell height is the terrain's, rocks excluded)
-            if target != RayTarget::Terrain {
+            if target != RayTarget::Terrain || p_cam.x <= depths_m.0 {
                 continue;
             }
-            let measured = c.stereo.perturb(&p_cam, rng);
+            let measured = self.config.stereo.perturb(&p_cam, rng);
             out.push(GroundObservation {
                 camera: self.camera.id,
                 p_rover: self.to_rover(&measured),
             });
         }
+    }
+
+    /// Ground points between `ground_max_range_m` and `far_ground_max_range_m`: the rows from
+    /// just below the horizon down to where level ground at `ground_max_range_m` appears
+    /// from the camera's height over its own ground, widened by 20 px for tilt.
+    fn far_ground_points(
+        &self,
+        candidates: &[usize],
+        rng: &mut ChaCha8Rng,
+        out: &mut Vec<GroundObservation>,
+    ) {
+        let c = self.config;
+        let ground_z = self.moon.height_at(self.origin.x, self.origin.y);
+        let height_m = (self.origin.z - ground_z).max(0.05);
+        let last_row =
+            (CY_PX + FOCAL_PX * height_m / c.ground_max_range_m + 20.0).min(IMAGE_HEIGHT_PX);
+        let depths_m = (c.ground_max_range_m, c.far_ground_max_range_m);
+        let rays = c.far_ground_points_per_camera;
+        self.sample_ground(candidates, CY_PX..last_row, depths_m, rays, rng, out);
     }
 
     fn lander_points(
