@@ -161,6 +161,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    if let Ok(at) = std::env::var("ROCKS_NEAR") {
+        let v: Vec<f64> = at.split(',').filter_map(|x| x.parse().ok()).collect();
+        if let [x, y, r] = v[..] {
+            for (i, rock) in moon.rocks().iter().enumerate() {
+                let d = (rock.center.x - x).hypot(rock.center.y - y);
+                if d < r {
+                    eprintln!(
+                        "rock {i} at ({:.2}, {:.2}) r {:.3} dist {:.2}",
+                        rock.center.x, rock.center.y, rock.radius_m, d
+                    );
+                }
+            }
+        }
+    }
     if std::env::var("COLLISIONS").is_ok() {
         for (n, log) in [(1, &s1.log), (2, &s2.log)] {
             let mut last = None;

@@ -12,6 +12,7 @@
 pub mod arc_planner;
 pub mod navigator;
 pub mod obstacles;
+pub mod route;
 pub mod visibility;
 pub mod waypoints;
 

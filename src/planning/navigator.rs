@@ -2,10 +2,13 @@
 //! the waypoint is far off the heading, and backing up (then turning away) when no arc is
 //! free or the rover stops making progress. Waypoints it cannot reach in time, or that sit
 //! inside an obstacle's clearance, are skipped; when the list runs out it is driven again in
-//! reverse (revisiting mapped ground).
+//! reverse (revisiting mapped ground). When the arc fan is stuck (no arc free, or no
+//! progress), the navigator plans a route to the waypoint over the whole neighbourhood
+//! ([`crate::planning::route`]) and steers along it; a waypoint without a route is skipped.
 
 use crate::planning::arc_planner::{ArcPlannerConfig, LanderBox, Scene};
 use crate::planning::obstacles::ObstacleMemory;
+use crate::planning::route::{plan_route, Route, RouteConfig};
 use crate::planning::visibility::SeenGrid;
 use crate::planning::Pose2;
 use crate::sim::rover::{wrap_angle, Command};
@@ -49,6 +52,8 @@ pub struct NavigatorConfig {
     pub waypoint_timeout_s: f64,
     /// Half-width of the lander box, metres.
     pub lander_half_extent_m: f64,
+    /// The route planner used when the arcs are stuck.
+    pub route: RouteConfig,
 }
 
 impl Default for NavigatorConfig {
@@ -70,6 +75,7 @@ impl Default for NavigatorConfig {
             commit_after_scan_s: 4.0,
             waypoint_timeout_s: 30.0,
             lander_half_extent_m: crate::sim::ipex::LANDER_HALF_EXTENT_M,
+            route: RouteConfig::default(),
         }
     }
 }
@@ -104,6 +110,8 @@ pub struct Navigator {
     waypoint_since_s: f64,
     waypoint_backups: usize,
     progress: Vec<(f64, f64)>,
+    /// The route being followed to the current waypoint, and when it was planned.
+    route: Option<(Route, f64)>,
     reached: usize,
     skipped: usize,
     backups: usize,
@@ -127,6 +135,7 @@ impl Navigator {
             waypoint_since_s: 0.0,
             waypoint_backups: 0,
             progress: Vec::new(),
+            route: None,
             reached: 0,
             skipped: 0,
             backups: 0,
@@ -168,6 +177,27 @@ impl Navigator {
         self.waypoint_since_s = time_s;
         self.waypoint_backups = 0;
         self.progress.clear();
+        self.route = None;
+    }
+
+    /// Plan a route from `here` to the current waypoint: followed from now on if there is
+    /// one, the waypoint skipped if there is none. Returns whether a route was found.
+    fn plan_route_or_skip(&mut self, time_s: f64, here: Point2<f64>, scene: &Scene) -> bool {
+        if !self.config.route.enabled || self.waypoints.is_empty() {
+            return false;
+        }
+        let goal = self.waypoint_session(self.next);
+        match plan_route(here, goal, &self.config.arcs, scene, &self.config.route) {
+            Some(route) => {
+                self.route = Some((route, time_s));
+                self.progress.clear();
+                true
+            }
+            None => {
+                self.advance(time_s, false);
+                false
+            }
+        }
     }
 
     /// Waypoint `k` (wrapping) in the session frame.
@@ -191,6 +221,13 @@ impl Navigator {
     /// Move on past waypoints that are reached, passed (the rover is beyond them along the
     /// path and near), blocked, or took too long.
     fn update_progress(&mut self, time_s: f64, here: Point2<f64>, obstacles: &ObstacleMemory) {
+        if self
+            .route
+            .as_ref()
+            .is_some_and(|(_, since)| time_s - since > self.config.route.replan_after_s)
+        {
+            self.route = None;
+        }
         for _ in 0..self.waypoints.len() {
             let a = self.waypoint_session(self.next);
             let b = self.waypoint_session(self.next + 1);
@@ -217,6 +254,13 @@ impl Navigator {
     /// `lookahead_waypoints`; the next waypoint when none is.
     fn carrot(&self, here: Point2<f64>, obstacles: &ObstacleMemory) -> Point2<f64> {
         let first = self.waypoint_session(self.next);
+        if let Some(p) = self
+            .route
+            .as_ref()
+            .and_then(|(r, _)| r.carrot(here, self.config.route.lookahead_m))
+        {
+            return p;
+        }
         let mut goal = first;
         let n = self.waypoints.len();
         for k in self.next..self.next + self.config.lookahead_waypoints.min(n) {
@@ -239,7 +283,11 @@ impl Navigator {
     /// that passing one always counts) minus the distance to the next, metres.
     fn path_progress(&self, here: Point2<f64>) -> f64 {
         let passed = (self.reached + self.skipped) as f64;
-        100.0 * passed - (self.waypoint_session(self.next) - here).norm()
+        let left = match &self.route {
+            Some((route, _)) => route.remaining_m(here),
+            None => (self.waypoint_session(self.next) - here).norm(),
+        };
+        100.0 * passed - left
     }
 
     /// The command for this control cycle, from the estimated pose (session frame) and the
@@ -338,7 +386,10 @@ impl Navigator {
         self.progress.retain(|&(t, _)| time_s - t <= window);
         if let Some(&(t0, p0)) = self.progress.first() {
             if time_s - t0 >= window * 0.95 && progress - p0 < self.config.stall_progress_m {
-                return self.start_backup(time_s);
+                // a first stall on the way to this waypoint: look for a route around
+                if self.route.is_some() || !self.plan_route_or_skip(time_s, here, &scene) {
+                    return self.start_backup(time_s);
+                }
             }
         }
         let committed = time_s < self.commit_until_s;
@@ -361,7 +412,10 @@ impl Navigator {
                 }
             }
             None => {
-                // nothing free ahead: look around for a way
+                // nothing free ahead: a route to steer along, and look around for a way
+                if self.route.is_none() {
+                    self.plan_route_or_skip(time_s, here, &scene);
+                }
                 self.mode = NavMode::Scan;
                 self.mode_until_s = time_s + full_turn_s;
                 self.turn_sign = if bearing >= 0.0 { 1.0 } else { -1.0 };
@@ -495,5 +549,56 @@ mod tests {
         assert_eq!(nav.mode(), NavMode::Backup);
         let c = nav.command(t, Pose2::new(0.0, 0.0, 0.0), &obstacles, None);
         assert!(c.speed_mps < 0.0);
+    }
+
+    /// A U of rocks open to the west, the waypoint east of it: the arcs alone turn back
+    /// into the U after every way out; the route leads around it.
+    fn escape_from_a_pocket(route: bool) -> (usize, f64) {
+        let mut obstacles = ObstacleMemory::new(&ObstacleConfig::default());
+        // 8 m north-east of the lander
+        let mut rock = |x: f64, y: f64| {
+            obstacles.add_rock(Point2::new(x + 8.0, y + 8.0), 0.1);
+            obstacles.add_rock(Point2::new(x + 8.0, y + 8.0), 0.1);
+        };
+        for k in 0..=12 {
+            let t = -3.0 + 0.5 * k as f64;
+            rock(2.0, t); // the east wall
+        }
+        for k in 0..=8 {
+            let x = -2.0 + 0.5 * k as f64;
+            rock(x, 3.0);
+            rock(x, -3.0);
+        }
+        let config = NavigatorConfig {
+            route: RouteConfig {
+                enabled: route,
+                ..RouteConfig::default()
+            },
+            waypoint_timeout_s: 200.0,
+            backups_per_waypoint: 100,
+            ..NavigatorConfig::default()
+        };
+        let mut nav = Navigator::new(&config, vec![Vector2::new(14.0, 8.0)]);
+        let mut s = RoverState::at_rest(8.0, 8.0, 0.0);
+        let rover = RoverConfig::default();
+        let (mut t, mut closest) = (0.0, f64::INFINITY);
+        while t < 150.0 && nav.counts().0 == 0 {
+            let cmd = nav.command(t, Pose2::new(s.x, s.y, s.yaw), &obstacles, None);
+            s.step(cmd, &rover, 0.05);
+            for o in obstacles.obstacles() {
+                closest = closest.min((o.p - Point2::new(s.x, s.y)).norm());
+            }
+            t += 0.05;
+        }
+        (nav.counts().0, closest)
+    }
+
+    #[test]
+    fn a_route_leads_out_of_a_pocket() {
+        let (reached, closest) = escape_from_a_pocket(true);
+        assert_eq!(reached, 1);
+        assert!(closest > 0.7, "{closest}");
+        let (reached, _) = escape_from_a_pocket(false);
+        assert_eq!(reached, 0, "the arcs alone stay in the pocket");
     }
 }
