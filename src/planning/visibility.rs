@@ -5,11 +5,20 @@
 use crate::planning::Pose2;
 use std::collections::HashSet;
 
+/// Cells on either side of the origin kept in the dense bitmap (±64 m at 0.25 m cells);
+/// the rare cells beyond go to a set.
+const DENSE_HALF_CELLS: i64 = 256;
+
 /// Seen cells of the horizontal plane (session frame).
 #[derive(Clone, Debug)]
 pub struct SeenGrid {
     cell_m: f64,
-    cells: HashSet<(i64, i64)>,
+    /// Cells within ±`DENSE_HALF_CELLS` of the origin, row-major (the arc planner looks up
+    /// thousands of cells per control cycle: a hash set was a sixth of the mission's time).
+    dense: Vec<bool>,
+    /// Seen cells outside the dense window.
+    outside: HashSet<(i64, i64)>,
+    count: usize,
 }
 
 impl SeenGrid {
@@ -21,8 +30,31 @@ impl SeenGrid {
             } else {
                 0.25
             },
-            cells: HashSet::new(),
+            dense: vec![false; (2 * DENSE_HALF_CELLS * 2 * DENSE_HALF_CELLS) as usize],
+            outside: HashSet::new(),
+            count: 0,
         }
+    }
+
+    fn dense_index(&self, (i, j): (i64, i64)) -> Option<usize> {
+        let (a, b) = (i + DENSE_HALF_CELLS, j + DENSE_HALF_CELLS);
+        let side = 2 * DENSE_HALF_CELLS;
+        ((0..side).contains(&a) && (0..side).contains(&b)).then(|| (a * side + b) as usize)
+    }
+
+    fn contains(&self, key: (i64, i64)) -> bool {
+        match self.dense_index(key) {
+            Some(k) => self.dense[k],
+            None => self.outside.contains(&key),
+        }
+    }
+
+    fn insert(&mut self, key: (i64, i64)) {
+        let new = match self.dense_index(key) {
+            Some(k) => !std::mem::replace(&mut self.dense[k], true),
+            None => self.outside.insert(key),
+        };
+        self.count += usize::from(new);
     }
 
     fn key(&self, x: f64, y: f64) -> (i64, i64) {
@@ -34,17 +66,17 @@ impl SeenGrid {
 
     /// Number of seen cells.
     pub fn len(&self) -> usize {
-        self.cells.len()
+        self.count
     }
 
     /// Whether nothing has been seen.
     pub fn is_empty(&self) -> bool {
-        self.cells.is_empty()
+        self.count == 0
     }
 
     /// Whether the cell holding (x, y) has been seen.
     pub fn is_seen(&self, x: f64, y: f64) -> bool {
-        x.is_finite() && y.is_finite() && self.cells.contains(&self.key(x, y))
+        x.is_finite() && y.is_finite() && self.contains(self.key(x, y))
     }
 
     /// Mark the cells whose centres lie in the view cone of a camera at `camera` (position
@@ -69,7 +101,7 @@ impl SeenGrid {
                 let cy = (j as f64 + 0.5) * self.cell_m - camera.y;
                 let d = cx.hypot(cy);
                 if d >= min_m && d <= max_m && (cx * ax + cy * ay) >= cos_half * d {
-                    self.cells.insert((i, j));
+                    self.insert((i, j));
                 }
             }
         }
@@ -89,7 +121,7 @@ impl SeenGrid {
                 let cx = (i as f64 + 0.5) * self.cell_m - x;
                 let cy = (j as f64 + 0.5) * self.cell_m - y;
                 if cx.hypot(cy) <= radius_m {
-                    self.cells.insert((i, j));
+                    self.insert((i, j));
                 }
             }
         }
@@ -110,5 +142,16 @@ mod tests {
         assert!(!g.is_seen(6.0, 0.0));
         g.mark_disc(0.0, 0.0, 0.5);
         assert!(g.is_seen(0.0, 0.3));
+    }
+
+    #[test]
+    fn far_cells_and_the_count() {
+        let mut g = SeenGrid::new(0.25);
+        g.mark_disc(100.0, -100.0, 0.2);
+        g.mark_disc(100.0, -100.0, 0.2);
+        g.mark_disc(1.0, 1.0, 0.2);
+        assert!(g.is_seen(100.0, -100.0) && g.is_seen(1.0, 1.0));
+        assert!(!g.is_seen(-100.0, 100.0) && !g.is_seen(f64::NAN, 0.0));
+        assert_eq!(g.len(), 2 * 4);
     }
 }
