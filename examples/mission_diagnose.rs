@@ -1,6 +1,6 @@
 //! Where the mission's LAC points are lost: the same two sessions' maps scored with the
 //! optimised poses (as the mission does) and with the *true* poses, split into observed and
-//! interpolated cells.
+//! interpolated cells, and the rock map with one session on its true poses.
 //!
 //! `cargo run --release --example mission_diagnose -- SEED [--coverage]` prints one JSON line.
 
@@ -258,6 +258,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let secs: f64 = config.session_seconds().iter().sum();
     let m_est = maps::build_maps(&est, &truth, secs, &config)?;
     let m_tru = maps::build_maps(&tru, &truth, secs, &config)?;
+    // one session on its true poses, the other on its estimate: whose error costs the points
+    let s1_true: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &t1), (&s2.log, &s2.poses)];
+    let s2_true: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &s1.poses), (&s2.log, &t2)];
+    let m_s1_true = maps::build_maps(&s1_true, &truth, secs, &config)?;
+    let m_s2_true = maps::build_maps(&s2_true, &truth, secs, &config)?;
     // the optimised poses with the true height: how much of the loss is z
     let with_true_z = |log: &SessionLog, poses: &[Isometry3<f64>]| -> Vec<Isometry3<f64>> {
         true_poses(log)
@@ -299,6 +304,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "seed": seed,
         "geometric": [m_est.score.geometric, m_z.score.geometric, m_tru.score.geometric, ceiling],
         "rocks": [m_est.score.rocks, m_tru.score.rocks],
+        "rocks_s1_true_s2_true": [m_s1_true.score.rocks, m_s2_true.score.rocks],
         "rock_pr_est": [m_est.score.rock_precision, m_est.score.rock_recall],
         "rock_pr_true": [m_tru.score.rock_precision, m_tru.score.rock_recall],
         "cells_observed_ok_unobserved_ok_est": h_est,
