@@ -85,6 +85,19 @@ pub struct LanderBox {
     pub half_extent_m: f64,
 }
 
+impl LanderBox {
+    /// Distance from the session-frame point `p` to the box (0 inside), metres.
+    pub fn distance_m(&self, p: Point2<f64>) -> f64 {
+        let t = self.session_from_lander.translation.vector;
+        let cuboid = Cuboid::new(Vector::new(self.half_extent_m, self.half_extent_m));
+        let pose = Pose::new(
+            Vector::new(t.x, t.y),
+            self.session_from_lander.rotation.angle(),
+        );
+        cuboid.distance_to_point(&pose, Vector::new(p.x, p.y), true)
+    }
+}
+
 /// The chosen arc.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArcChoice {
@@ -202,16 +215,9 @@ impl ArcPlannerConfig {
         }
         // lander box
         if let Some(lander) = scene.lander {
-            let t = lander.session_from_lander.translation.vector;
-            let cuboid = Cuboid::new(Vector::new(lander.half_extent_m, lander.half_extent_m));
-            let pose = Pose::new(
-                Vector::new(t.x, t.y),
-                lander.session_from_lander.rotation.angle(),
-            );
-            let d = |x: f64, y: f64| cuboid.distance_to_point(&pose, Vector::new(x, y), true);
-            let now = d(here.x, here.y);
+            let now = lander.distance_m(here);
             for p in points {
-                let dp = d(p.x, p.y);
+                let dp = lander.distance_m(Point2::new(p.x, p.y));
                 if dp < self.clearance_m && dp < now - 1e-3 {
                     return false;
                 }

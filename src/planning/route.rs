@@ -14,9 +14,6 @@
 
 use crate::planning::arc_planner::{ArcPlannerConfig, Scene};
 use nalgebra::Point2;
-use parry2d_f64::math::{Pose, Vector};
-use parry2d_f64::query::PointQuery;
-use parry2d_f64::shape::Cuboid;
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -286,16 +283,9 @@ fn occupancy(
         }
     }
     if let Some(lander) = scene.lander {
-        let t = lander.session_from_lander.translation.vector;
-        let cuboid = Cuboid::new(Vector::new(lander.half_extent_m, lander.half_extent_m));
-        let pose = Pose::new(
-            Vector::new(t.x, t.y),
-            lander.session_from_lander.rotation.angle(),
-        );
         for i in 0..grid.nx {
             for j in 0..grid.ny {
-                let p = grid.centre(i, j);
-                if cuboid.distance_to_point(&pose, Vector::new(p.x, p.y), true) < arcs.clearance_m {
+                if lander.distance_m(grid.centre(i, j)) < arcs.clearance_m {
                     blocked[index(i, j)] = true;
                 }
             }

@@ -190,15 +190,7 @@ pub fn observe(
     let mut out = Observation::default();
     let lander_points = lander_side_points(moon, config.lander_point_spacing_m);
     for camera in cameras() {
-        let world_from_camera = world_from_rover * camera.rover_from_camera;
-        let cam = ViewContext {
-            moon,
-            config,
-            camera,
-            world_from_camera,
-            camera_from_world: world_from_camera.inverse(),
-            origin: Point3::from(world_from_camera.translation.vector),
-        };
+        let cam = ViewContext::new(moon, config, camera, world_from_rover);
         let candidates = cam.rocks_in_view();
         cam.detect_rocks(&candidates, rng, &mut out.boulders);
         cam.spurious(&candidates, rng, &mut out.boulders);
@@ -225,15 +217,7 @@ pub fn observe_far_ground(
         return out;
     }
     for camera in cameras() {
-        let world_from_camera = world_from_rover * camera.rover_from_camera;
-        let cam = ViewContext {
-            moon,
-            config,
-            camera,
-            world_from_camera,
-            camera_from_world: world_from_camera.inverse(),
-            origin: Point3::from(world_from_camera.translation.vector),
-        };
+        let cam = ViewContext::new(moon, config, camera, world_from_rover);
         let candidates = cam.rocks_within(config.far_ground_max_range_m);
         cam.far_ground_points(&candidates, rng, &mut out);
     }
@@ -249,7 +233,24 @@ struct ViewContext<'a> {
     origin: Point3<f64>,
 }
 
-impl ViewContext<'_> {
+impl<'a> ViewContext<'a> {
+    fn new(
+        moon: &'a Moon,
+        config: &'a SensorConfig,
+        camera: Camera,
+        world_from_rover: &Isometry3<f64>,
+    ) -> Self {
+        let world_from_camera = world_from_rover * camera.rover_from_camera;
+        ViewContext {
+            moon,
+            config,
+            camera,
+            world_from_camera,
+            camera_from_world: world_from_camera.inverse(),
+            origin: Point3::from(world_from_camera.translation.vector),
+        }
+    }
+
     /// Rocks that may appear in (or block rays of) this camera: within range and inside the
     /// image once their radius is allowed for.
     fn rocks_in_view(&self) -> Vec<usize> {
