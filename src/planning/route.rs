@@ -31,7 +31,7 @@ pub struct RouteConfig {
     /// repeated.
     pub margin_m: f64,
     /// At most this many cells per side (a farther goal is approached as far as the grid
-    /// reaches).
+    /// reaches); at most [`MAX_CELLS_PER_SIDE`] whatever is asked.
     pub max_cells_per_side: usize,
     /// Cost of a metre over ground the cameras have not seen, in metres of seen ground.
     pub unseen_cost: f64,
@@ -58,6 +58,9 @@ impl Default for RouteConfig {
         }
     }
 }
+
+/// The largest grid side, cells, whatever the configuration asks (4 million cells).
+pub const MAX_CELLS_PER_SIDE: usize = 2000;
 
 /// A planned route, session frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -142,10 +145,10 @@ pub fn plan_route(
     if config.cell_m.is_nan() || config.cell_m <= 0.0 || !finite {
         return None;
     }
-    let max_side_m = config.cell_m * config.max_cells_per_side.max(2) as f64;
+    let max_side_m = config.cell_m * config.max_cells_per_side.clamp(2, MAX_CELLS_PER_SIDE) as f64;
     let mut margin_m = config.margin_m.max(config.cell_m);
     loop {
-        let route = plan_in_grid(from, to, margin_m, arcs, scene, config);
+        let route = plan_in_grid(from, to, [margin_m, max_side_m], arcs, scene, config);
         let span_m = (to - from).abs().max() + 2.0 * margin_m;
         if route.is_some() || span_m >= max_side_m {
             return route;
@@ -154,16 +157,16 @@ pub fn plan_route(
     }
 }
 
-/// [`plan_route`] over the grid spanning both ends plus `margin_m`.
+/// [`plan_route`] over the grid spanning both ends plus `margin_m`, at most `max_side_m`
+/// wide.
 fn plan_in_grid(
     from: Point2<f64>,
     to: Point2<f64>,
-    margin_m: f64,
+    [margin_m, max_side_m]: [f64; 2],
     arcs: &ArcPlannerConfig,
     scene: &Scene,
     config: &RouteConfig,
 ) -> Option<Route> {
-    let max_side_m = config.cell_m * config.max_cells_per_side.max(2) as f64;
     // the grid: both ends plus the margin, cropped around the rover to the largest size
     let lo = from.coords.inf(&to.coords).add_scalar(-margin_m);
     let hi = from.coords.sup(&to.coords).add_scalar(margin_m);
