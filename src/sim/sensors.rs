@@ -11,8 +11,9 @@
 //! Ground points are stereo points on whatever the rays through random pixels below the
 //! horizon hit (terrain or rock, the lander excluded), with the same noise. Ground farther
 //! than `ground_max_range_m` (up to `far_ground_max_range_m`) lies in a band of rows just
-//! below the horizon; [`observe_far_ground`] samples that band from its own random stream,
-//! so that how far the height map looks changes nothing else the cameras report.
+//! below the horizon; [`observe_far`] samples that band, and the lander's sides beyond
+//! `max_range_m` (up to `far_lander_max_range_m`), from a random stream of its own, so that
+//! how far the maps and the lander fit look changes nothing else the cameras report.
 
 use crate::sim::ipex::{
     BACK_LEFT_CAMERA_M, CX_PX, CY_PX, FOCAL_PX, FRONT_LEFT_CAMERA_M, IMAGE_HEIGHT_PX,
@@ -59,6 +60,10 @@ pub struct SensorConfig {
     pub far_ground_points_per_camera: usize,
     /// Farthest of those far ground points (depth), metres.
     pub far_ground_max_range_m: f64,
+    /// Points on the lander's sides are also measured beyond `max_range_m`, up to this depth
+    /// ([`observe_far`]), metres: the lander is large, and its bearing stays precise far
+    /// away even where stereo depth is not.
+    pub far_lander_max_range_m: f64,
     /// Error (1 σ per axis) of the IMU's gravity direction, radians.
     pub gravity_sigma_rad: f64,
     /// Spacing of the points sampled on the lander's sides, metres.
@@ -81,6 +86,7 @@ impl Default for SensorConfig {
             ground_max_range_m: 5.0,
             far_ground_points_per_camera: 100,
             far_ground_max_range_m: 10.0,
+            far_lander_max_range_m: 15.0,
             gravity_sigma_rad: 0.001,
             lander_point_spacing_m: 0.3,
         }
@@ -195,31 +201,51 @@ pub fn observe(
         cam.detect_rocks(&candidates, rng, &mut out.boulders);
         cam.spurious(&candidates, rng, &mut out.boulders);
         cam.ground_points(&candidates, rng, &mut out.ground);
-        cam.lander_points(&lander_points, rng, &mut out.lander_points_rover);
+        let depths_m = (config.min_range_m, config.max_range_m);
+        cam.lander_points(&lander_points, depths_m, rng, &mut out.lander_points_rover);
     }
     out
 }
 
-/// Ground points beyond `ground_max_range_m` and within `far_ground_max_range_m`, from all
-/// cameras: rays through random pixels of the rows where flat ground that far appears (with
-/// room for the rover's tilt), the same stereo noise. `rng` is a stream of its own, apart from
-/// the one [`observe`] draws from.
-pub fn observe_far_ground(
+/// What the cameras measure beyond the near ranges ([`observe`]'s), from their own stream.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FarObservation {
+    /// Ground points beyond `ground_max_range_m`, within `far_ground_max_range_m`.
+    pub ground: Vec<GroundObservation>,
+    /// Points on the lander's sides beyond `max_range_m`, within `far_lander_max_range_m`,
+    /// rover frame.
+    pub lander_points_rover: Vec<Point3<f64>>,
+}
+
+/// Ground points beyond `ground_max_range_m` and within `far_ground_max_range_m` (rays
+/// through random pixels of the rows where flat ground that far appears, with room for the
+/// rover's tilt), then points on the lander's sides beyond `max_range_m` and within
+/// `far_lander_max_range_m`, from all cameras, with the same stereo noise. `rng` is a
+/// stream of its own, apart from the one [`observe`] draws from.
+pub fn observe_far(
     moon: &Moon,
     world_from_rover: &Isometry3<f64>,
     config: &SensorConfig,
     rng: &mut ChaCha8Rng,
-) -> Vec<GroundObservation> {
-    let mut out = Vec::new();
-    if config.far_ground_points_per_camera == 0
-        || config.far_ground_max_range_m <= config.ground_max_range_m
+) -> FarObservation {
+    let mut out = FarObservation::default();
+    if config.far_ground_points_per_camera > 0
+        && config.far_ground_max_range_m > config.ground_max_range_m
     {
-        return out;
+        for camera in cameras() {
+            let cam = ViewContext::new(moon, config, camera, world_from_rover);
+            let candidates = cam.rocks_within(config.far_ground_max_range_m);
+            cam.far_ground_points(&candidates, rng, &mut out.ground);
+        }
     }
-    for camera in cameras() {
-        let cam = ViewContext::new(moon, config, camera, world_from_rover);
-        let candidates = cam.rocks_within(config.far_ground_max_range_m);
-        cam.far_ground_points(&candidates, rng, &mut out);
+    if config.far_lander_max_range_m > config.max_range_m {
+        let lander_points = lander_side_points(moon, config.lander_point_spacing_m);
+        // just past the near pass's range, so no point is measured twice
+        let depths_m = (config.max_range_m + 1e-9, config.far_lander_max_range_m);
+        for camera in cameras() {
+            let cam = ViewContext::new(moon, config, camera, world_from_rover);
+            cam.lander_points(&lander_points, depths_m, rng, &mut out.lander_points_rover);
+        }
     }
     out
 }
@@ -458,16 +484,19 @@ impl<'a> ViewContext<'a> {
         self.sample_ground(candidates, CY_PX..last_row, depths_m, rays, rng, out);
     }
 
+    /// The lander's side points in view at a depth within `depths_m` (inclusive), not
+    /// occluded, with stereo noise.
     fn lander_points(
         &self,
         points: &[Point3<f64>],
+        depths_m: (f64, f64),
         rng: &mut ChaCha8Rng,
         out: &mut Vec<Point3<f64>>,
     ) {
         let c = self.config;
         for q in points {
             let p = self.camera_from_world * q;
-            if p.x < c.min_range_m || p.x > c.max_range_m {
+            if p.x < depths_m.0 || p.x > depths_m.1 {
                 continue;
             }
             if !project(&p.coords).is_some_and(|(u, v)| in_image(u, v, 0.0)) {

@@ -40,7 +40,7 @@ use crate::sim::ipex::{footprint_radius_m, LUNAR_GRAVITY_MPS2, SITE_HALF_EXTENT_
 use crate::sim::ipex::{CX_PX, FOCAL_PX};
 use crate::sim::moon::Moon;
 use crate::sim::rover::{Command, RoverConfig, RoverState};
-use crate::sim::sensors::{cameras, observe, observe_far_ground, SensorConfig};
+use crate::sim::sensors::{cameras, observe, observe_far, SensorConfig};
 use crate::sim::visual_odometry::{gravity_in_rover, VisualOdometry, VoConfig};
 use nalgebra::{Isometry2, Isometry3, Point2, Translation3, UnitQuaternion, Vector2, Vector3};
 use rand::{Rng, SeedableRng};
@@ -48,8 +48,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// Mixed into a session's seed for the far ground points' stream ("far grnd").
-const FAR_GROUND_STREAM: u64 = 0x6661_7220_6772_6e64;
+/// Mixed into a session's seed for the far measurements' stream ("far grnd").
+const FAR_STREAM: u64 = 0x6661_7220_6772_6e64;
 
 pub use crate::sim::session_log::{
     FrameRecord, Obstruction, SessionLog, SessionSummary, TickRecord,
@@ -156,8 +156,8 @@ pub struct SessionSim<'a> {
     state: RoverState,
     vo: VisualOdometry,
     rng: ChaCha8Rng,
-    /// The far ground points' own stream ([`observe_far_ground`]).
-    far_ground_rng: ChaCha8Rng,
+    /// The far measurements' own stream ([`observe_far`]).
+    far_rng: ChaCha8Rng,
     navigator: Navigator,
     obstacles: ObstacleMemory,
     seen: SeenGrid,
@@ -203,7 +203,7 @@ impl<'a> SessionSim<'a> {
             state,
             vo,
             rng,
-            far_ground_rng: ChaCha8Rng::seed_from_u64(seed ^ FAR_GROUND_STREAM),
+            far_rng: ChaCha8Rng::seed_from_u64(seed ^ FAR_STREAM),
             navigator,
             obstacles: ObstacleMemory::new(&config.obstacles),
             seen: SeenGrid::new(0.25),
@@ -318,21 +318,24 @@ impl<'a> SessionSim<'a> {
             let p = est * q;
             self.obstacles.add_point(Point2::new(p.x, p.y));
         }
-        // the far ground feeds the height map only: the planner's seen ground is the near
-        // ground, where a small rock would have been detected
-        let mut ground = obs.ground;
-        ground.extend(observe_far_ground(
+        // the far measurements feed the maps and the lander fit only: the planner's seen
+        // ground is the near ground, where a small rock would have been detected, and the
+        // lander is an obstacle only where it is near
+        let far = observe_far(
             self.moon,
             &tick.world_from_rover,
             &self.config.sensors,
-            &mut self.far_ground_rng,
-        ));
+            &mut self.far_rng,
+        );
+        let (mut ground, mut lander_points_rover) = (obs.ground, obs.lander_points_rover);
+        ground.extend(far.ground);
+        lander_points_rover.extend(far.lander_points_rover);
         self.log.frames.push(FrameRecord {
             tick: self.log.ticks.len() - 1,
             time_s: tick.time_s,
             boulders: obs.boulders,
             ground,
-            lander_points_rover: obs.lander_points_rover,
+            lander_points_rover,
         });
     }
 
