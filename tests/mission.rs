@@ -93,3 +93,18 @@ fn bad_seconds_is_bad_input() {
         .unwrap();
     assert_eq!(output.status.code(), Some(2));
 }
+
+#[test]
+fn session_one_finds_its_way_out_of_a_pocket_beside_the_lander() {
+    // seed 4: between the lander's clearance and a few small rocks every arc toward the
+    // waypoint was blocked, and session 1 spent 500 s in one square metre (81 m driven in
+    // 600 s); the route planner leads it out (159 m, BENCHMARKS.md)
+    let out = run_mission(4, &MissionConfig::default()).unwrap();
+    let s1 = &out.report.sessions[0];
+    assert!(
+        s1.distance_m > 140.0,
+        "session 1 drove {:.0} m",
+        s1.distance_m
+    );
+    assert_eq!(out.report.collisions, 0);
+}
