@@ -56,7 +56,7 @@ pub struct SensorConfig {
     /// Farthest ground point (depth), metres.
     pub ground_max_range_m: f64,
     /// Rays per camera and frame through the band of rows just below the horizon, for ground
-    /// points beyond `ground_max_range_m` ([`observe_far_ground`]; 0: none).
+    /// points beyond `ground_max_range_m` ([`observe_far`]; 0: none).
     pub far_ground_points_per_camera: usize,
     /// Farthest of those far ground points (depth), metres.
     pub far_ground_max_range_m: f64,
