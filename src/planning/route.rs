@@ -125,6 +125,38 @@ impl Grid {
             f(p.y - self.origin.y, self.ny),
         )
     }
+
+    /// Index of cell (i, j) in the row-major cell vectors.
+    fn index(&self, i: usize, j: usize) -> usize {
+        i * self.ny + j
+    }
+
+    /// Index of the cell holding `p` (clamped to the grid).
+    fn index_of(&self, p: Point2<f64>) -> usize {
+        let (i, j) = self.cell(p);
+        self.index(i, j)
+    }
+
+    /// Cell (i, j) of index `k`.
+    fn ij(&self, k: usize) -> (usize, usize) {
+        (k / self.ny, k % self.ny)
+    }
+
+    /// Centre of the cell with index `k`.
+    fn centre_of(&self, k: usize) -> Point2<f64> {
+        let (i, j) = self.ij(k);
+        self.centre(i, j)
+    }
+
+    /// The cells of the square of half-side `r` around `c` (clamped to the grid): index and
+    /// distance of the centre from `c`.
+    fn cells_near(&self, c: Point2<f64>, r: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let (i0, j0) = self.cell(c - nalgebra::Vector2::repeat(r));
+        let (i1, j1) = self.cell(c + nalgebra::Vector2::repeat(r));
+        (i0..=i1).flat_map(move |i| {
+            (j0..=j1).map(move |j| (self.index(i, j), (self.centre(i, j) - c).norm()))
+        })
+    }
 }
 
 /// The shortest route from `from` to `to` (session frame) in the configuration space of
@@ -184,39 +216,34 @@ fn plan_in_grid(
     };
     let blocked = occupancy(&grid, from, arcs, scene, config);
     let cost_of = |k: usize| {
-        let (i, j) = (k / grid.ny, k % grid.ny);
-        let p = grid.centre(i, j);
+        let p = grid.centre_of(k);
         match scene.seen {
             Some(seen) if !seen.is_seen(p.x, p.y) => config.unseen_cost.max(1.0),
             _ => 1.0,
         }
     };
-    let start = {
-        let (i, j) = grid.cell(from);
-        i * grid.ny + j
-    };
-    let goal = {
-        let (i, j) = grid.cell(to);
-        i * grid.ny + j
-    };
+    let (start, goal) = (grid.index_of(from), grid.index_of(to));
     if blocked[goal] {
         return None;
     }
-    let goal_p = grid.centre(goal / grid.ny, goal % grid.ny);
-    let heuristic = |k: usize| (grid.centre(k / grid.ny, k % grid.ny) - goal_p).norm();
+    let goal_p = grid.centre_of(goal);
     // A*, costs in micrometres so that the heap orders integers
     let to_um = |m: f64| (m * 1e6).round() as u64;
+    let heuristic_um = |k: usize| to_um((grid.centre_of(k) - goal_p).norm());
     let n = grid.nx * grid.ny;
     let mut best = vec![u64::MAX; n];
     let mut parent = vec![usize::MAX; n];
     let mut heap = BinaryHeap::new();
     best[start] = 0;
-    heap.push(Reverse((to_um(heuristic(start)), start)));
-    while let Some(Reverse((_, k))) = heap.pop() {
+    heap.push(Reverse((heuristic_um(start), start)));
+    while let Some(Reverse((f, k))) = heap.pop() {
         if k == goal {
             break;
         }
-        let (i, j) = (k / grid.ny, k % grid.ny);
+        if f > best[k].saturating_add(heuristic_um(k)) {
+            continue; // a stale entry: the cell was reached more cheaply since
+        }
+        let (i, j) = grid.ij(k);
         for (di, dj) in NEIGHBOURS {
             let (Some(a), Some(b)) = (i.checked_add_signed(di), j.checked_add_signed(dj)) else {
                 continue;
@@ -224,7 +251,7 @@ fn plan_in_grid(
             if a >= grid.nx || b >= grid.ny {
                 continue;
             }
-            let m = a * grid.ny + b;
+            let m = grid.index(a, b);
             if blocked[m] {
                 continue;
             }
@@ -233,7 +260,7 @@ fn plan_in_grid(
             if g < best[m] {
                 best[m] = g;
                 parent[m] = k;
-                heap.push(Reverse((g.saturating_add(to_um(heuristic(m))), m)));
+                heap.push(Reverse((g.saturating_add(heuristic_um(m)), m)));
             }
         }
     }
@@ -248,10 +275,7 @@ fn plan_in_grid(
         cells.push(parent[k]);
     }
     cells.reverse();
-    let points: Vec<Point2<f64>> = cells
-        .iter()
-        .map(|&k| grid.centre(k / grid.ny, k % grid.ny))
-        .collect();
+    let points: Vec<Point2<f64>> = cells.iter().map(|&k| grid.centre_of(k)).collect();
     let length_m = points.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
     Some(Route { points, length_m })
 }
@@ -276,24 +300,18 @@ fn occupancy(
     scene: &Scene,
     config: &RouteConfig,
 ) -> Vec<bool> {
-    let mut blocked = vec![false; grid.nx * grid.ny];
-    let index = |i: usize, j: usize| i * grid.ny + j;
-    for i in 0..grid.nx {
-        for j in 0..grid.ny {
-            let q = scene.nav_from_session * grid.centre(i, j);
-            let bound = arcs.site_half_extent_m;
-            blocked[index(i, j)] = q.x.abs() > bound || q.y.abs() > bound;
-        }
-    }
-    if let Some(lander) = scene.lander {
-        for i in 0..grid.nx {
-            for j in 0..grid.ny {
-                if lander.distance_m(grid.centre(i, j)) < arcs.clearance_m {
-                    blocked[index(i, j)] = true;
-                }
-            }
-        }
-    }
+    let bound = arcs.site_half_extent_m;
+    let mut blocked: Vec<bool> = (0..grid.nx * grid.ny)
+        .map(|k| {
+            let p = grid.centre_of(k);
+            let q = scene.nav_from_session * p;
+            q.x.abs() > bound
+                || q.y.abs() > bound
+                || scene
+                    .lander
+                    .is_some_and(|lander| lander.distance_m(p) < arcs.clearance_m)
+        })
+        .collect();
     // each obstacle blocks the disc of its required distance
     let centre = grid.centre(grid.nx / 2, grid.ny / 2);
     let half_diag = grid.cell_m * (grid.nx.max(grid.ny) as f64) * std::f64::consts::FRAC_1_SQRT_2;
@@ -302,27 +320,18 @@ fn occupancy(
         .obstacles
         .for_each_near(centre, half_diag + reach, |o| {
             let r = arcs.required_m(o.radius_m);
-            let (i0, j0) = grid.cell(o.p - nalgebra::Vector2::new(r, r));
-            let (i1, j1) = grid.cell(o.p + nalgebra::Vector2::new(r, r));
-            for i in i0..=i1 {
-                for j in j0..=j1 {
-                    if (grid.centre(i, j) - o.p).norm() < r {
-                        blocked[index(i, j)] = true;
-                    }
+            for (k, d) in grid.cells_near(o.p, r) {
+                if d < r {
+                    blocked[k] = true;
                 }
             }
         });
-    let (i0, j0) = grid.cell(from - nalgebra::Vector2::repeat(config.start_free_m));
-    let (i1, j1) = grid.cell(from + nalgebra::Vector2::repeat(config.start_free_m));
-    for i in i0..=i1 {
-        for j in j0..=j1 {
-            if (grid.centre(i, j) - from).norm() <= config.start_free_m + 1e-9 {
-                blocked[index(i, j)] = false;
-            }
+    for (k, d) in grid.cells_near(from, config.start_free_m) {
+        if d <= config.start_free_m + 1e-9 {
+            blocked[k] = false;
         }
     }
-    let (i, j) = grid.cell(from);
-    blocked[index(i, j)] = false;
+    blocked[grid.index_of(from)] = false;
     blocked
 }
 
@@ -398,23 +407,11 @@ mod tests {
             let a = k as f64 * std::f64::consts::TAU / 24.0;
             rock(&mut m, 8.0 + 1.6 * a.cos(), -6.0 + 1.6 * a.sin(), 0.1);
         }
-        let arcs = ArcPlannerConfig::default();
-        let r = plan_route(
-            Point2::new(4.0, -6.0),
-            Point2::new(8.0, -6.0),
-            &arcs,
-            &scene(&m),
-            &RouteConfig::default(),
-        );
-        assert!(r.is_none());
+        let (arcs, s) = (ArcPlannerConfig::default(), scene(&m));
+        let from = Point2::new(4.0, -6.0);
+        let plan = |to| plan_route(from, to, &arcs, &s, &RouteConfig::default());
+        assert!(plan(Point2::new(8.0, -6.0)).is_none());
         // a goal inside the lander's clearance neither
-        let r = plan_route(
-            Point2::new(4.0, -6.0),
-            Point2::new(0.0, -2.0),
-            &arcs,
-            &scene(&m),
-            &RouteConfig::default(),
-        );
-        assert!(r.is_none());
+        assert!(plan(Point2::new(0.0, -2.0)).is_none());
     }
 }
