@@ -3,6 +3,9 @@
 //! interpolated cells, and the rock map with one session on its true poses.
 //!
 //! `cargo run --release --example mission_diagnose -- SEED [--coverage]` prints one JSON line.
+//! On stderr, when set: `NAV=1` where each session's time went (seconds per navigator mode,
+//! a trace every second of a mode change), `COLLISIONS=1` the 20 s before every collision,
+//! `ROCKS_NEAR=x,y,r` the true rocks within r of (x, y), `DUMP_Z=1` every frame's pose error.
 
 use nalgebra::Isometry3;
 use segloc::mapping::{score, HeightMapBuilder};
