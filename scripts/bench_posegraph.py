@@ -54,7 +54,9 @@ def read_toro(path):
     return edges
 
 
-def build_problem(edges):
+def build_problem(edges, anchor=None):
+    """Between factors in edge order, the chained-odometry initial estimate, and pose 0 held by
+    `anchor` (the last factor; default an exact equality)."""
     graph = gtsam.NonlinearFactorGraph()
     for i, j, pose, info in edges:
         graph.add(gtsam.BetweenFactorPose3(i, j, pose, gtsam.noiseModel.Gaussian.Information(info)))
@@ -63,7 +65,7 @@ def build_problem(edges):
     for i, j, pose, _ in edges:
         if j == i + 1 and not initial.exists(j):
             initial.insert(j, initial.atPose3(i).compose(pose))
-    graph.add(gtsam.NonlinearEqualityPose3(0, gtsam.Pose3()))
+    graph.add(anchor if anchor is not None else gtsam.NonlinearEqualityPose3(0, gtsam.Pose3()))
     return graph, initial
 
 
@@ -96,17 +98,11 @@ def run_gtsam_gnc(corrupted, out_path):
     """GTSAM's graduated non-convexity (GncLMOptimizer, truncated least squares) on a corrupted
     TORO file, odometry edges given as known inliers (segloc's kernel applies to loop closures
     only), from the chained odometry; writes the poses as g2o vertices. Returns (ms, rejected)."""
-    graph, initial = gtsam.NonlinearFactorGraph(), gtsam.Values()
-    initial.insert(0, gtsam.Pose3())
-    known = []
-    for i, j, pose, info in read_toro(corrupted):
-        if j == i + 1:
-            known.append(graph.size())
-        graph.add(gtsam.BetweenFactorPose3(i, j, pose, gtsam.noiseModel.Gaussian.Information(info)))
-        if j == i + 1 and not initial.exists(j):
-            initial.insert(j, initial.atPose3(i).compose(pose))
-    known.append(graph.size())
-    graph.add(gtsam.PriorFactorPose3(0, gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-6)))
+    edges = read_toro(corrupted)
+    # GNC weighs noise-model factors only: pose 0 is held by a tight prior, not an equality
+    anchor = gtsam.PriorFactorPose3(0, gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-6))
+    graph, initial = build_problem(edges, anchor)
+    known = [k for k, (i, j, _, _) in enumerate(edges) if j == i + 1] + [len(edges)]
     params = gtsam.GncLMParams()
     params.setKnownInliers(known)
     t0 = time.perf_counter()
