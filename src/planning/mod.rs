@@ -2,7 +2,8 @@
 //! lander), what is in the way ([`obstacles`]: detected rocks and lander points), how to get
 //! there ([`arc_planner`]: constant-curvature arcs checked with parry2d) and the state
 //! machine around it ([`navigator`]: waypoint sequencing, point turns, stall detection and a
-//! backup manoeuvre), with [`visibility`] keeping track of the ground the cameras have
+//! backup manoeuvre, and [`lander_glance`]: turning to look at the lander for an absolute
+//! fix), with [`visibility`] keeping track of the ground the cameras have
 //! seen (unseen ground counts as blocked).
 //!
 //! Everything here works in the rover's *session frame* (the frame its odometry estimate
@@ -10,6 +11,7 @@
 //! is the world frame) and mapped through `session_from_nav`.
 
 pub mod arc_planner;
+pub mod lander_glance;
 pub mod navigator;
 pub mod obstacles;
 pub mod route;

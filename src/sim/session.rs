@@ -145,6 +145,12 @@ impl SessionConfig {
         if !self.collision_radius_m.is_finite() || !self.collision_min_rock_radius_m.is_finite() {
             return bad("collision radii must be finite");
         }
+        if !self.navigator.glance.is_valid() {
+            return bad(
+                "navigator.glance: period_s, turn_rate_rps and timeout_s must be positive, \
+                 the ranges and angles finite and hold_s not negative",
+            );
+        }
         Ok(())
     }
 }
