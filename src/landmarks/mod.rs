@@ -7,6 +7,7 @@
 
 pub mod cluster;
 pub mod estimate;
+pub mod size_bias;
 pub mod view_bias;
 
 use segloc_maps::{Detection, DetectionSet, ObjectMap};
@@ -46,6 +47,11 @@ pub struct FusionConfig {
     /// direction (its centroid keeps its own bias), near 0 for one seen from all sides
     /// (the biases cancel). Needs rover positions.
     pub view_bias_sigma_m: f64,
+    /// Viewpoint-bias correction proportional to the boulder's size: each detection with a
+    /// size is pushed a further `view_bias_size_fraction × size_m` away from the rover
+    /// (0 = off, the default). The visible face of a larger boulder lies farther in front
+    /// of its centre.
+    pub view_bias_size_fraction: f64,
 }
 
 impl Default for FusionConfig {
@@ -58,6 +64,7 @@ impl Default for FusionConfig {
             repeatability_m: 0.01,
             view_bias_m: 0.0,
             view_bias_sigma_m: 0.0,
+            view_bias_size_fraction: 0.0,
         }
     }
 }
@@ -91,15 +98,22 @@ pub fn fuse_detections(set: &DetectionSet, config: &FusionConfig) -> ObjectMap {
         })
         .collect();
     let corrected: Vec<Detection>;
-    let usable: Vec<&Detection> = if config.view_bias_m != 0.0 {
-        corrected = usable
-            .iter()
-            .map(|d| view_bias::corrected(d, config.view_bias_m))
-            .collect();
-        corrected.iter().collect()
-    } else {
-        usable
-    };
+    let usable: Vec<&Detection> =
+        if config.view_bias_m != 0.0 || config.view_bias_size_fraction != 0.0 {
+            corrected = usable
+                .iter()
+                .map(|d| {
+                    let size_m = d.size_m.unwrap_or(0.0);
+                    view_bias::corrected(
+                        d,
+                        config.view_bias_m + config.view_bias_size_fraction * size_m,
+                    )
+                })
+                .collect();
+            corrected.iter().collect()
+        } else {
+            usable
+        };
     let points: Vec<_> = usable.iter().map(|d| d.p_world).collect();
     let clusters = cluster::cluster_points(&points, config.cluster_radius_m);
     let mut map = ObjectMap::new(set.frame.clone(), set.session.clone(), set.gravity_aligned);
