@@ -2,7 +2,9 @@
 //! optimised poses (as the mission does) and with the *true* poses, split into observed and
 //! interpolated cells, and the rock map with one session on its true poses.
 //!
-//! `cargo run --release --example mission_diagnose -- SEED [--coverage]` prints one JSON line.
+//! `cargo run --release --example mission_diagnose -- SEED [--coverage | --config FILE]`
+//! prints one JSON line (`FILE`: a mission configuration as `segloc config print --mission`
+//! writes it).
 //! On stderr, when set: `NAV=1` where each session's time went (seconds per navigator mode,
 //! a trace every second of a mode change), `COLLISIONS=1` the 20 s before every collision,
 //! `ROCKS_NEAR=x,y,r` the true rocks within r of (x, y), `DUMP_Z=1` every frame's pose error.
@@ -88,10 +90,15 @@ fn tilt_deg(log: &SessionLog, poses: &[Isometry3<f64>]) -> f64 {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let seed: u64 = args.get(1).map_or(Ok(1), |s| s.parse())?;
-    let config = if args.iter().any(|a| a == "--coverage") {
-        MissionConfig::lac_coverage()
-    } else {
-        MissionConfig::default()
+    let config_file = args
+        .iter()
+        .position(|a| a == "--config")
+        .map(|k| args.get(k + 1));
+    let config = match config_file {
+        Some(Some(path)) => toml::from_str(&std::fs::read_to_string(path)?)?,
+        Some(None) => return Err("--config needs a file".into()),
+        None if args.iter().any(|a| a == "--coverage") => MissionConfig::lac_coverage(),
+        None => MissionConfig::default(),
     };
     let moon = Moon::generate(&config.moon, seed)?;
     let min_rock = config.session.collision_min_rock_radius_m;
@@ -103,6 +110,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
     let s1 = mapping_session::map_session(&moon, &config, start_1, seed * 2, &Silent)?;
+    let config = s1.calibrated(&config);
     let relocalizer = Relocalizer::new(s1.map.clone(), config.relocalize.clone())?;
     let s2 = lost_session::localize_session(
         &moon,
@@ -305,6 +313,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ceiling = score(&perfect.build(), &truth, None)?.geometric;
     let out = serde_json::json!({
         "seed": seed,
+        "view_bias_size_fraction": config.fusion.view_bias_size_fraction,
         "geometric": [m_est.score.geometric, m_z.score.geometric, m_tru.score.geometric, ceiling],
         "rocks": [m_est.score.rocks, m_tru.score.rocks],
         "rocks_s1_true_s2_true": [m_s1_true.score.rocks, m_s2_true.score.rocks],

@@ -107,4 +107,9 @@ fn session_one_finds_its_way_out_of_a_pocket_beside_the_lander() {
         s1.distance_m
     );
     assert_eq!(out.report.collisions, 0);
+    // the viewpoint bias session 1 calibrated from its own passes (the simulated detector
+    // puts centroids a third of the radius, a sixth of the size, in front of the centre;
+    // seeds 1–20 estimate 0.11–0.17, BENCHMARKS.md)
+    let f = out.report.config.fusion.view_bias_size_fraction;
+    assert!((0.09..=0.22).contains(&f), "view bias fraction {f}");
 }

@@ -7,15 +7,17 @@
 //!
 //! A stereo centroid lies on the visible face of the boulder, towards the camera from the
 //! boulder's centre by a fraction of its radius; a rover mostly sees a boulder from one
-//! side, so this does not average out. [`rock_grid_from_detections`] moves every detection
-//! of known size that far away from the rover (horizontally) before fusing, clusters with
+//! side, so this does not average out. [`rock_grid_from_detections`] fuses with the
+//! viewpoint-bias correction ([`FusionConfig::view_bias_size_fraction`]: every detection
+//! of known size moved that far away from the rover, horizontally; the mission calibrates
+//! it from its own passes, [`crate::mission::view_bias`]), clusters with
 //! a radius wide enough to keep a large boulder's detections from different sides
 //! together, and paints the footprints of the boulders seen often enough. On the synthetic
 //! mission (10 seeds, BENCHMARKS.md) the face correction is worth +0.035 F1, the wider
 //! clusters +0.02, and the third observation (spurious clusters) +0.01.
 
 use crate::landmarks::{fuse_detections, FusionConfig};
-use segloc_maps::{Detection, DetectionSet, LacGrid, Landmark};
+use segloc_maps::{DetectionSet, LacGrid, Landmark};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of [`rock_grid`].
@@ -30,9 +32,10 @@ pub struct RockGridConfig {
     pub footprint_scale: f64,
     /// Sample points per cell side (4 in the LAC ground truth).
     pub samples_per_side: usize,
-    /// [`rock_grid_from_detections`]: a detection of known size is moved this fraction of
-    /// its radius away from the rover (horizontally): the stereo centroid of the visible
-    /// face sits that far in front of the boulder's centre (0: no correction).
+    /// [`rock_grid_from_detections`], when the fusion brings no viewpoint-bias correction
+    /// of its own (`view_bias_size_fraction` 0): a detection of known size is moved this
+    /// fraction of its radius away from the rover (horizontally), as the stereo centroid
+    /// of the visible face sits that far in front of the boulder's centre (0: none).
     pub face_offset_fraction: f64,
     /// [`rock_grid_from_detections`]: detections within this distance (m) of a cluster's
     /// centroid join it (replaces the fusion's radius for the rock map only).
@@ -52,41 +55,10 @@ impl Default for RockGridConfig {
     }
 }
 
-/// Move each detection of known size `fraction` × its radius away from the rover that made
-/// it, horizontally: from the centroid of the boulder's visible face to its centre.
-/// Detections without a size or a rover position, or at the rover's position, are kept.
-///
-/// ```
-/// use nalgebra::Point3;
-/// use segloc::mapping::rock_footprint::shift_to_boulder_centres;
-/// use segloc_maps::Detection;
-/// let mut d = [Detection { frame: 0, p_world: Point3::new(3.0, 0.0, 0.1),
-///     rover_position: Some(Point3::new(0.0, 0.0, 0.3)), size_m: Some(0.3), score: None }];
-/// shift_to_boulder_centres(&mut d, 1.0 / 3.0);
-/// assert!((d[0].p_world.x - 3.05).abs() < 1e-12); // a third of the 0.15 m radius
-/// ```
-pub fn shift_to_boulder_centres(detections: &mut [Detection], fraction: f64) {
-    if !(fraction.is_finite() && fraction != 0.0) {
-        return;
-    }
-    for d in detections {
-        let (Some(rover), Some(size)) = (d.rover_position, d.size_m) else {
-            continue;
-        };
-        let away = d.p_world.xy() - rover.xy();
-        let range = away.norm();
-        if !(size.is_finite() && size > 0.0 && range > 1e-9) {
-            continue;
-        }
-        let step = away * (fraction * 0.5 * size / range);
-        d.p_world.x += step.x;
-        d.p_world.y += step.y;
-    }
-}
-
-/// The rock grid of raw detections (world frame, with rover positions and sizes): centroids
-/// moved to the boulders' centres ([`shift_to_boulder_centres`]), fused with `fusion` but
-/// the rock map's own cluster radius, and painted by [`rock_grid`]. Returns the grid and
+/// The rock grid of raw detections (world frame, with rover positions and sizes): fused
+/// with `fusion` (its viewpoint-bias correction, or else `face_offset_fraction`, moving the
+/// centroids to the boulders' centres) but the rock map's own cluster radius, and painted
+/// by [`rock_grid`]. Returns the grid and
 /// the number of fused boulders.
 pub fn rock_grid_from_detections(
     detections: &DetectionSet,
@@ -94,9 +66,13 @@ pub fn rock_grid_from_detections(
     fusion: &FusionConfig,
     config: &RockGridConfig,
 ) -> (LacGrid, usize) {
-    let mut shifted = detections.clone();
-    shift_to_boulder_centres(&mut shifted.detections, config.face_offset_fraction);
+    let view_bias_size_fraction = match fusion.view_bias_size_fraction {
+        f if f != 0.0 => f,
+        // a fraction of the radius is half that fraction of the size
+        _ => 0.5 * config.face_offset_fraction,
+    };
     let fusion = FusionConfig {
+        view_bias_size_fraction,
         cluster_radius_m: if config.cluster_radius_m.is_finite() && config.cluster_radius_m > 0.0 {
             config.cluster_radius_m
         } else {
@@ -104,7 +80,7 @@ pub fn rock_grid_from_detections(
         },
         ..fusion.clone()
     };
-    let map = fuse_detections(&shifted, &fusion);
+    let map = fuse_detections(detections, &fusion);
     (rock_grid(&map.landmarks, grid, config), map.len())
 }
 
@@ -190,6 +166,7 @@ fn nearest_cell(grid: &LacGrid, x: f64, y: f64, radius: f64) -> Option<(usize, u
 #[cfg(test)]
 mod tests {
     use super::*;
+    use segloc_maps::Detection;
     use nalgebra::{Matrix3, Point3};
 
     fn lm(x: f64, y: f64, size: Option<f64>, obs: u32) -> Landmark {
@@ -245,22 +222,6 @@ mod tests {
     }
 
     #[test]
-    fn face_centroids_move_to_the_boulder_centre() {
-        let mut d = vec![
-            det([0.0, 3.0, 0.1], [0.0, 0.0, 0.3], Some(0.6)),
-            det([1.0, 1.0, 0.1], [0.0, 0.0, 0.3], None),
-            det([2.0, 2.0, 0.1], [2.0, 2.0, 0.3], Some(0.2)),
-        ];
-        shift_to_boulder_centres(&mut d, 0.5);
-        assert!((d[0].p_world - Point3::new(0.0, 3.15, 0.1)).norm() < 1e-12);
-        assert_eq!(d[1].p_world, Point3::new(1.0, 1.0, 0.1)); // no size
-        assert_eq!(d[2].p_world, Point3::new(2.0, 2.0, 0.1)); // at the rover
-        let before = d.clone();
-        shift_to_boulder_centres(&mut d, f64::NAN);
-        assert_eq!(d, before);
-    }
-
-    #[test]
     fn a_boulder_seen_from_two_sides_paints_its_own_footprint() {
         // a 0.4 m boulder centred at (2.0, 0.0) whose detections sit a third of its radius
         // in front of it, seen from the west and from the east
@@ -299,5 +260,18 @@ mod tests {
             rock_grid_from_detections(&set, &grid, &FusionConfig::default(), &raw);
         assert_eq!(boulders2, 3);
         assert_ne!(g2.rock, centred.rock);
+        // the fusion's own (calibrated) correction, as a fraction of the size, takes the
+        // place of the face offset
+        let calibrated = FusionConfig {
+            view_bias_size_fraction: f / 2.0,
+            ..FusionConfig::default()
+        };
+        let none = RockGridConfig {
+            face_offset_fraction: 0.0,
+            ..config
+        };
+        let (g3, boulders3) = rock_grid_from_detections(&set, &grid, &calibrated, &none);
+        assert_eq!(boulders3, 2);
+        assert_eq!(g3.rock, centred.rock);
     }
 }

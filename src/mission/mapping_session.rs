@@ -9,6 +9,7 @@ use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
     detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
 };
+use super::view_bias::ViewBiasCalibration;
 use super::{Attempt, MissionConfig, MissionError};
 use crate::graph::{se3, RobustKernel};
 use crate::landmarks::{fuse_detections, FusionConfig};
@@ -20,6 +21,9 @@ use segloc_maps::ObjectMap;
 
 /// Frames whose lander factors are added before the graph is re-optimised.
 const LANDER_CHUNK_FRAMES: usize = 30;
+
+/// Passes over the whole session of the final viewpoint-bias estimate.
+const FINAL_VIEW_BIAS_ITERATIONS: usize = 3;
 
 /// What session 1 produced.
 pub struct MappedSession {
@@ -36,6 +40,22 @@ pub struct MappedSession {
     /// Position RMSE of the pose graph's poses (before the mission's terrain height
     /// alignment changes `poses`), metres.
     pub rmse_graph_m: f64,
+    /// The fusion parameters the map was made with: the mission's, with the viewpoint
+    /// bias the session calibrated (later sessions and the maps use them too).
+    pub fusion: FusionConfig,
+    /// The viewpoint-bias calibration at the end of the session.
+    pub view_bias: ViewBiasCalibration,
+}
+
+impl MappedSession {
+    /// `config` with this session's calibrated fusion parameters, for the sessions and
+    /// maps that follow.
+    pub fn calibrated(&self, config: &MissionConfig) -> MissionConfig {
+        MissionConfig {
+            fusion: self.fusion.clone(),
+            ..config.clone()
+        }
+    }
 }
 
 /// Run session 1 from `start` for the mission's duration and build its map.
@@ -75,15 +95,22 @@ pub fn map_session(
             first = end;
         }
     }
+    let mut view_bias = ViewBiasCalibration::new(&config.view_bias);
     let attempts = if config.loop_closures {
-        loop_closures(&log, config, &mut graph)?
+        loop_closures(&log, config, &mut graph, &mut view_bias)?
     } else {
         Vec::new()
     };
     graph.optimize()?;
     let poses = graph.poses_in_prior();
+    // the whole session, iterated (each pass clusters with the previous estimate)
+    let end_s = log.frames.last().map_or(0.0, |f| f.time_s) + config.view_bias.stretch_s;
+    for _ in 0..FINAL_VIEW_BIAS_ITERATIONS {
+        view_bias.update(&log, &poses, end_s, &config.fusion);
+    }
+    let fusion = view_bias.fusion(&config.fusion);
     let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
-    let map = fuse_detections(&set, &config.fusion);
+    let map = fuse_detections(&set, &fusion);
     let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(MappedSession {
         log,
@@ -92,6 +119,8 @@ pub fn map_session(
         attempts,
         odometry_bias: graph.bias,
         rmse_graph_m,
+        fusion,
+        view_bias,
     })
 }
 
@@ -107,6 +136,7 @@ fn loop_closures(
     log: &SessionLog,
     config: &MissionConfig,
     graph: &mut TrajectoryGraph,
+    view_bias: &mut ViewBiasCalibration,
 ) -> Result<Vec<Attempt>, MissionError> {
     let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
     let start_end = start_frames(log, config);
@@ -128,13 +158,23 @@ fn loop_closures(
         if old_end < 10 {
             continue;
         }
+        view_bias.update(log, &graph.poses_in_prior(), now, &config.fusion);
+        let fusion = view_bias.fusion(&config.fusion);
         if start_end > 0 && start_end < first {
             let reference = Reference {
                 frames: 0..start_end,
                 fixed_frame: Some(0),
                 min_observations: 1,
             };
-            let closure = close_loop(log, config, graph, &reference, first..k + 1, &mut attempts)?;
+            let closure = close_loop(
+                log,
+                config,
+                &fusion,
+                graph,
+                &reference,
+                first..k + 1,
+                &mut attempts,
+            )?;
             gate.submit(closure, &mut attempts, graph, config)?;
         }
         let reference = Reference {
@@ -142,7 +182,15 @@ fn loop_closures(
             fixed_frame: None,
             min_observations: config.fusion.min_observations,
         };
-        let closure = close_loop(log, config, graph, &reference, first..k + 1, &mut attempts)?;
+        let closure = close_loop(
+            log,
+            config,
+            &fusion,
+            graph,
+            &reference,
+            first..k + 1,
+            &mut attempts,
+        )?;
         gate.submit(closure, &mut attempts, graph, config)?;
     }
     Ok(attempts)
@@ -265,18 +313,20 @@ struct Reference {
 
 /// Relocalizes the recent frames' submap against `reference`'s map; records the attempt in
 /// `attempts` and returns the closure when the relocalizer accepted it.
+#[allow(clippy::too_many_arguments)]
 fn close_loop(
     log: &SessionLog,
     config: &MissionConfig,
+    fusion: &FusionConfig,
     graph: &TrajectoryGraph,
     reference: &Reference,
     recent: std::ops::Range<usize>,
     attempts: &mut Vec<Attempt>,
 ) -> Result<Option<Closure>, MissionError> {
     let odometry = graph.poses_in_prior();
-    let fusion = FusionConfig {
+    let old_fusion = FusionConfig {
         min_observations: reference.min_observations,
-        ..config.fusion.clone()
+        ..fusion.clone()
     };
     let old = fuse_detections(
         &detections_with_poses(
@@ -286,11 +336,11 @@ fn close_loop(
             "session1-old",
             "odom",
         ),
-        &fusion,
+        &old_fusion,
     );
     let query = fuse_detections(
         &detections_with_poses(log, &odometry, recent.clone(), "session1-recent", "odom"),
-        &config.fusion,
+        fusion,
     );
     let last = recent.end.saturating_sub(1);
     let mut record = Attempt::pending(

@@ -38,6 +38,7 @@ pub mod report;
 pub mod terrain_height;
 pub mod trace;
 pub mod trajectory;
+pub mod view_bias;
 
 use crate::graph::GraphError;
 use crate::landmarks::FusionConfig;
@@ -166,6 +167,9 @@ pub struct MissionConfig {
     pub lander: lander_factor::LanderFitConfig,
     /// Boulder fusion (maps and submaps).
     pub fusion: FusionConfig,
+    /// Self-calibration of the detections' viewpoint bias (sets the fusion's
+    /// `view_bias_size_fraction` from session 1's passes).
+    pub view_bias: view_bias::ViewBiasConfig,
     /// Relocalization.
     pub relocalize: RelocalizeConfig,
     /// Rock map from fused boulders.
@@ -216,6 +220,7 @@ impl Default for MissionConfig {
             lander_factors: true,
             lander: lander_factor::LanderFitConfig::default(),
             fusion: FusionConfig::default(),
+            view_bias: view_bias::ViewBiasConfig::default(),
             relocalize: RelocalizeConfig::default(),
             rock_grid: RockGridConfig::default(),
             terrain_height: terrain_height::TerrainHeightConfig::default(),
@@ -293,6 +298,10 @@ impl MissionConfig {
             .any(|s| !(s.is_finite() && *s > 0.0 && *s <= 1e5))
         {
             return bad("seconds_per_session and seconds_session_2 must be within (0, 1e5]");
+        }
+        let stretch_s = self.view_bias.stretch_s;
+        if !(stretch_s.is_finite() && stretch_s >= 1.0) {
+            return bad("view_bias.stretch_s must be at least 1");
         }
         if !(self.relocalize_period_s.is_finite() && self.relocalize_period_s >= 1.0) {
             return bad("relocalize_period_s must be at least 1");
@@ -377,6 +386,8 @@ pub fn run_mission_with_progress(
 
     let mut session_1 =
         mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
+    // session 2 and the maps fuse boulders with session 1's calibrated viewpoint bias
+    let config = &session_1.calibrated(config);
     let relocalizer = Relocalizer::new(session_1.map.clone(), config.relocalize.clone())?;
     let mut session_2 = lost_session::localize_session(
         &moon,

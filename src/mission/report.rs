@@ -149,8 +149,23 @@ pub struct MissionReport {
     pub wall_s: f64,
     /// Boulders in session 1's map (the prior).
     pub prior_landmarks: usize,
-    /// The configuration.
+    /// The viewpoint bias of the detections as session 1 calibrated it
+    /// ([`super::view_bias`]).
+    pub view_bias: ViewBiasReport,
+    /// The configuration (its fusion's `view_bias_size_fraction` is the one used).
     pub config: MissionConfig,
+}
+
+/// The viewpoint-bias calibration's outcome.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ViewBiasReport {
+    /// The size fraction estimated from session 1's passes (`None`: not enough evidence,
+    /// or calibration off; the configured value was used).
+    pub estimated_size_fraction: Option<f64>,
+    /// Its standard error.
+    pub standard_error: Option<f64>,
+    /// Boulders seen from several directions within one pass.
+    pub boulders: usize,
 }
 
 /// A session's true and estimated xy of every frame.
@@ -248,6 +263,11 @@ pub(super) fn assemble(
             realtime_factor: simulated / wall_s.max(1e-9),
             wall_s,
             prior_landmarks: one.map.len(),
+            view_bias: ViewBiasReport {
+                estimated_size_fraction: one.view_bias.fraction(),
+                standard_error: one.view_bias.evidence().fraction_standard_error(),
+                boulders: one.view_bias.evidence().boulders,
+            },
             config: config.clone(),
         },
         grid: maps.grid,
