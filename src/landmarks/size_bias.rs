@@ -58,7 +58,7 @@ impl SizeBiasEvidence {
     pub fn from_detections(detections: &[Detection], config: &FusionConfig, guess: f64) -> Self {
         let mut points = Vec::new();
         let mut corrected = Vec::new();
-        let mut scaled_rays = Vec::new();
+        let mut sizes = Vec::new();
         let mut rays = Vec::new();
         let mut rovers = Vec::new();
         for d in detections {
@@ -75,7 +75,7 @@ impl SizeBiasEvidence {
             corrected.push(d.p_world + (u * (guess * size)).push(0.0));
             rays.push(u);
             rovers.push(rover.coords.xy());
-            scaled_rays.push(u * size);
+            sizes.push(size);
         }
         let mut evidence = Self::default();
         for members in cluster_points(&corrected, config.cluster_radius_m) {
@@ -89,12 +89,16 @@ impl SizeBiasEvidence {
             if mean(&|i| rays[i]).norm() > MAX_MEAN_RAY {
                 continue;
             }
-            let a_bar = mean(&|i| scaled_rays[i]);
+            // the boulder's size as the mean of its detections' (each is 15 % off or so):
+            // per-detection sizes in the regressor would attenuate the estimate
+            let size = members.iter().map(|&i| sizes[i as usize]).sum::<f64>() / n;
+            let scaled_ray = |i: usize| rays[i] * size;
+            let a_bar = mean(&scaled_ray);
             let r_bar = mean(&|i| rovers[i]);
             let p_bar = mean(&|i| points[i].coords.xy());
             for &i in &members {
                 let i = i as usize;
-                let (da, dr) = (scaled_rays[i] - a_bar, rovers[i] - r_bar);
+                let (da, dr) = (scaled_ray(i) - a_bar, rovers[i] - r_bar);
                 let dp = points[i].coords.xy() - p_bar;
                 evidence.normal[0] += da.dot(&da);
                 evidence.normal[1] += da.dot(&dr);
@@ -260,6 +264,24 @@ mod tests {
         let se = evidence.fraction_standard_error().unwrap();
         assert!(se > 1e-3 && se < 0.05, "{se}");
         assert!((f - 1.0 / 6.0).abs() < 4.0 * se, "{f} ± {se}");
+    }
+
+    #[test]
+    fn noisy_detected_sizes_do_not_shrink_the_estimate() {
+        // every detection's size 15 % off (alternating), its position biased by the true
+        // size: with per-detection sizes in the regressor the estimate came out low
+        let detections: Vec<Detection> = pass(1.0 / 6.0)
+            .into_iter()
+            .enumerate()
+            .map(|(k, d)| Detection {
+                size_m: d.size_m.map(|s| s * if k % 2 == 0 { 1.15 } else { 0.85 }),
+                ..d
+            })
+            .collect();
+        let evidence =
+            SizeBiasEvidence::from_detections(&detections, &FusionConfig::default(), 0.0);
+        let f = evidence.fraction(1).unwrap();
+        assert!((f - 1.0 / 6.0).abs() < 0.003, "{f}");
     }
 
     #[test]
