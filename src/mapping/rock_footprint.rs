@@ -166,8 +166,8 @@ fn nearest_cell(grid: &LacGrid, x: f64, y: f64, radius: f64) -> Option<(usize, u
 #[cfg(test)]
 mod tests {
     use super::*;
-    use segloc_maps::Detection;
     use nalgebra::{Matrix3, Point3};
+    use segloc_maps::Detection;
 
     fn lm(x: f64, y: f64, size: Option<f64>, obs: u32) -> Landmark {
         let mut l = Landmark::new(0, Point3::new(x, y, 0.0), Matrix3::identity() * 1e-4);

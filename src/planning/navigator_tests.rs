@@ -185,5 +185,8 @@ fn glances_at_the_lander_on_an_outer_loop_and_drives_on() {
     assert_eq!(glances_off, 0);
     // a glance every 20 s out of view, a few seconds each
     assert!((2..=5).contains(&glances), "{glances} glances");
-    assert!(reached + 3 >= reached_off && reached >= 8, "{reached} vs {reached_off}");
+    assert!(
+        reached + 3 >= reached_off && reached >= 8,
+        "{reached} vs {reached_off}"
+    );
 }
