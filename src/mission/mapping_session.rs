@@ -160,38 +160,26 @@ fn loop_closures(
         }
         view_bias.update(log, &graph.poses_in_prior(), now, &config.fusion);
         let fusion = view_bias.fusion(&config.fusion);
+        let mut references = Vec::with_capacity(2);
         if start_end > 0 && start_end < first {
-            let reference = Reference {
+            references.push(Reference {
                 frames: 0..start_end,
                 fixed_frame: Some(0),
-                min_observations: 1,
-            };
-            let closure = close_loop(
-                log,
-                config,
-                &fusion,
-                graph,
-                &reference,
-                first..k + 1,
-                &mut attempts,
-            )?;
-            gate.submit(closure, &mut attempts, graph, config)?;
+                fusion: FusionConfig {
+                    min_observations: 1,
+                    ..fusion.clone()
+                },
+            });
         }
-        let reference = Reference {
+        references.push(Reference {
             frames: 0..old_end,
             fixed_frame: None,
-            min_observations: config.fusion.min_observations,
-        };
-        let closure = close_loop(
-            log,
-            config,
-            &fusion,
-            graph,
-            &reference,
-            first..k + 1,
-            &mut attempts,
-        )?;
-        gate.submit(closure, &mut attempts, graph, config)?;
+            fusion,
+        });
+        for reference in &references {
+            let closure = close_loop(log, config, graph, reference, first..k + 1, &mut attempts)?;
+            gate.submit(closure, &mut attempts, graph, config)?;
+        }
     }
     Ok(attempts)
 }
@@ -307,27 +295,21 @@ struct Reference {
     frames: std::ops::Range<usize>,
     /// The earlier end of the factor, if fixed (otherwise nearest the matched landmarks).
     fixed_frame: Option<usize>,
-    /// Fusion's minimum observations for this map.
-    min_observations: u32,
+    /// Fusion of this map (the submap's takes the mission's minimum observations).
+    fusion: FusionConfig,
 }
 
 /// Relocalizes the recent frames' submap against `reference`'s map; records the attempt in
 /// `attempts` and returns the closure when the relocalizer accepted it.
-#[allow(clippy::too_many_arguments)]
 fn close_loop(
     log: &SessionLog,
     config: &MissionConfig,
-    fusion: &FusionConfig,
     graph: &TrajectoryGraph,
     reference: &Reference,
     recent: std::ops::Range<usize>,
     attempts: &mut Vec<Attempt>,
 ) -> Result<Option<Closure>, MissionError> {
     let odometry = graph.poses_in_prior();
-    let old_fusion = FusionConfig {
-        min_observations: reference.min_observations,
-        ..fusion.clone()
-    };
     let old = fuse_detections(
         &detections_with_poses(
             log,
@@ -336,11 +318,15 @@ fn close_loop(
             "session1-old",
             "odom",
         ),
-        &old_fusion,
+        &reference.fusion,
     );
+    let query_fusion = FusionConfig {
+        min_observations: config.fusion.min_observations,
+        ..reference.fusion.clone()
+    };
     let query = fuse_detections(
         &detections_with_poses(log, &odometry, recent.clone(), "session1-recent", "odom"),
-        fusion,
+        &query_fusion,
     );
     let last = recent.end.saturating_sub(1);
     let mut record = Attempt::pending(
