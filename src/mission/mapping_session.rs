@@ -95,19 +95,30 @@ pub fn map_session(
             first = end;
         }
     }
+    let before_closures = config.view_bias.reprocess.then(|| graph.clone());
     let mut view_bias = ViewBiasCalibration::new(&config.view_bias);
-    let attempts = if config.loop_closures {
+    let mut attempts = if config.loop_closures {
         loop_closures(&log, config, &mut graph, &mut view_bias)?
     } else {
         Vec::new()
     };
     graph.optimize()?;
-    let poses = graph.poses_in_prior();
     // the whole session, iterated (each pass clusters with the previous estimate)
     let end_s = log.frames.last().map_or(0.0, |f| f.time_s) + config.view_bias.stretch_s;
     for _ in 0..FINAL_VIEW_BIAS_ITERATIONS {
-        view_bias.update(&log, &poses, end_s, &config.fusion);
+        view_bias.update(&log, &graph.poses_in_prior(), end_s, &config.fusion);
     }
+    if let (true, Some(fraction), Some(fresh)) =
+        (config.loop_closures, view_bias.fraction(), before_closures)
+    {
+        // the closures before the estimate existed were made with the bias left in: close
+        // every loop again with the final estimate, as the session ends
+        graph = fresh;
+        let mut fixed = view_bias.fixed_at(fraction);
+        attempts = loop_closures(&log, config, &mut graph, &mut fixed)?;
+        graph.optimize()?;
+    }
+    let poses = graph.poses_in_prior();
     let fusion = view_bias.fusion(&config.fusion);
     let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
     let map = fuse_detections(&set, &fusion);

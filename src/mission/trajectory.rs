@@ -68,6 +68,7 @@ enum ExtraFactor {
 /// frame (`odom`), pose ids are frame indices into [`SessionLog::frames`]. The odometry
 /// factors carry the measurements with the current estimate of the odometry's biases taken
 /// out ([`TrajectoryGraph::calibrate`]).
+#[derive(Clone)]
 pub struct TrajectoryGraph {
     /// The graph (poses `odom_from_rover`, frame [`PRIOR_FRAME`] = `odom_from_prior`).
     pub graph: PoseGraph,

@@ -27,6 +27,9 @@ pub struct ViewBiasConfig {
     /// … and largest standard error of the estimated fraction (a session that passes few
     /// boulders close enough to see both sides keeps the fusion's fixed value instead).
     pub max_standard_error: f64,
+    /// At the end of session 1, close every loop again with the final estimate (the
+    /// closures made before there was an estimate kept the bias).
+    pub reprocess: bool,
 }
 
 impl Default for ViewBiasConfig {
@@ -36,6 +39,7 @@ impl Default for ViewBiasConfig {
             stretch_s: 30.0,
             min_boulders: 20,
             max_standard_error: 0.03,
+            reprocess: true,
         }
     }
 }
@@ -47,6 +51,8 @@ pub struct ViewBiasCalibration {
     evidence: SizeBiasEvidence,
     /// The latest estimate (once there was enough evidence).
     fraction: Option<f64>,
+    /// Updates leave the estimate as it is.
+    fixed: bool,
 }
 
 impl ViewBiasCalibration {
@@ -56,6 +62,16 @@ impl ViewBiasCalibration {
             config: config.clone(),
             evidence: SizeBiasEvidence::default(),
             fraction: None,
+            fixed: false,
+        }
+    }
+
+    /// This calibration with its estimate held at `fraction` (updates change nothing).
+    pub fn fixed_at(&self, fraction: f64) -> Self {
+        Self {
+            fraction: Some(fraction),
+            fixed: true,
+            ..self.clone()
         }
     }
 
@@ -71,7 +87,7 @@ impl ViewBiasCalibration {
         fusion: &FusionConfig,
     ) {
         let stretch_ok = self.config.stretch_s.is_finite() && self.config.stretch_s > 0.0;
-        if !self.config.calibrate || !stretch_ok {
+        if !self.config.calibrate || !stretch_ok || self.fixed {
             return;
         }
         let stretch_s = self.config.stretch_s;
