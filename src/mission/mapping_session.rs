@@ -40,10 +40,8 @@ pub struct MappedSession {
     /// Position RMSE of the pose graph's poses (before the mission's terrain height
     /// alignment changes `poses`), metres.
     pub rmse_graph_m: f64,
-    /// The fusion parameters the map was made with: the mission's, with the viewpoint
-    /// bias the session calibrated (later sessions and the maps use them too).
-    pub fusion: FusionConfig,
-    /// The viewpoint-bias calibration at the end of the session.
+    /// The viewpoint-bias calibration at the end of the session (the map was fused with
+    /// its estimate; later sessions and the maps use it too).
     pub view_bias: ViewBiasCalibration,
 }
 
@@ -52,7 +50,7 @@ impl MappedSession {
     /// maps that follow.
     pub fn calibrated(&self, config: &MissionConfig) -> MissionConfig {
         MissionConfig {
-            fusion: self.fusion.clone(),
+            fusion: self.view_bias.fusion(&config.fusion),
             ..config.clone()
         }
     }
@@ -105,8 +103,9 @@ pub fn map_session(
     graph.optimize()?;
     // the whole session, iterated (each pass clusters with the previous estimate)
     let end_s = log.frames.last().map_or(0.0, |f| f.time_s) + config.view_bias.stretch_s;
+    let closed = graph.poses_in_prior();
     for _ in 0..FINAL_VIEW_BIAS_ITERATIONS {
-        view_bias.update(&log, &graph.poses_in_prior(), end_s, &config.fusion);
+        view_bias.update(&log, &closed, end_s, &config.fusion);
     }
     if let (true, Some(fraction), Some(fresh)) =
         (config.loop_closures, view_bias.fraction(), before_closures)
@@ -130,7 +129,6 @@ pub fn map_session(
         attempts,
         odometry_bias: graph.bias,
         rmse_graph_m,
-        fusion,
         view_bias,
     })
 }

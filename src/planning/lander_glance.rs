@@ -113,11 +113,6 @@ impl LanderGlance {
         self.glances
     }
 
-    /// Whether a glance is under way.
-    pub fn is_active(&self) -> bool {
-        self.active.is_some()
-    }
-
     /// The step for this control cycle, from the estimated pose and the lander's centre
     /// (both in the session frame). `may_start`: the navigator is driving normally, so a new
     /// glance may begin now.
