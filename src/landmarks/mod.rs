@@ -73,6 +73,36 @@ pub struct FusionConfig {
 }
 
 impl FusionConfig {
+    /// Checks that every distance, noise figure and width is finite and non-negative, the
+    /// cluster radius positive and the range gate ordered; the message names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let non_negative = [
+            (self.min_range_m, "min_range_m"),
+            (self.repeatability_m, "repeatability_m"),
+            (self.view_bias_sigma_m, "view_bias_sigma_m"),
+            (self.depth_sigma_per_m2, "depth_sigma_per_m2"),
+            (self.lateral_sigma_per_m, "lateral_sigma_per_m"),
+            (self.pose_sigma_m, "pose_sigma_m"),
+            (self.outlier_width_sigmas, "outlier_width_sigmas"),
+        ];
+        if let Some((_, name)) = non_negative
+            .iter()
+            .find(|(v, _)| !(v.is_finite() && *v >= 0.0))
+        {
+            return Err(format!("{name} must be finite and non-negative"));
+        }
+        if !(self.cluster_radius_m.is_finite() && self.cluster_radius_m > 0.0) {
+            return Err("cluster_radius_m must be positive".into());
+        }
+        if !(self.max_range_m >= self.min_range_m) {
+            return Err("max_range_m must not be below min_range_m".into());
+        }
+        if !(self.view_bias_m.is_finite() && self.view_bias_size_fraction.is_finite()) {
+            return Err("view_bias_m and view_bias_size_fraction must be finite".into());
+        }
+        Ok(())
+    }
+
     /// The stereo noise model of the weighted centroid.
     pub fn stereo_noise(&self) -> StereoNoise {
         StereoNoise {
@@ -170,4 +200,24 @@ pub fn fuse_detections(set: &DetectionSet, config: &FusionConfig) -> ObjectMap {
     map.notes
         .insert("detections".into(), set.detections.len().to_string());
     map
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_names_the_bad_field() {
+        assert!(FusionConfig::default().validate().is_ok());
+        let bad = FusionConfig {
+            pose_sigma_m: f64::NAN,
+            ..FusionConfig::default()
+        };
+        assert!(bad.validate().unwrap_err().contains("pose_sigma_m"));
+        let inverted = FusionConfig {
+            min_range_m: 9.0,
+            ..FusionConfig::default()
+        };
+        assert!(inverted.validate().unwrap_err().contains("max_range_m"));
+    }
 }

@@ -11,7 +11,7 @@ use super::trajectory::{
 };
 use super::{Attempt, MissionConfig, MissionError};
 use crate::graph::{se3, RobustKernel};
-use crate::landmarks::fuse_detections;
+use crate::landmarks::{fuse_detections, FusionConfig};
 use crate::relocalize::Relocalizer;
 use crate::sim::moon::Moon;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
@@ -256,7 +256,12 @@ fn attempt(
         ));
     }
     let set = detections_with_poses(log, &odometry, first..k + 1, "session2", "odom");
-    let query = fuse_detections(&set, &config.fusion);
+    // placed by a barely calibrated odometry: the pose error, not the stereo's, dominates
+    let fusion = FusionConfig {
+        pose_sigma_m: config.lost_submap_pose_sigma_m,
+        ..config.fusion.clone()
+    };
+    let query = fuse_detections(&set, &fusion);
     let mut record = Attempt::pending(2, now_s, query.len());
     let result = relocalizer.relocalize(&query);
     let reloc = match result {
