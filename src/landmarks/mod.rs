@@ -94,7 +94,7 @@ impl FusionConfig {
         if !(self.cluster_radius_m.is_finite() && self.cluster_radius_m > 0.0) {
             return Err("cluster_radius_m must be positive".into());
         }
-        if !(self.max_range_m >= self.min_range_m) {
+        if self.max_range_m.is_nan() || self.max_range_m < self.min_range_m {
             return Err("max_range_m must not be below min_range_m".into());
         }
         if !(self.view_bias_m.is_finite() && self.view_bias_size_fraction.is_finite()) {
