@@ -207,6 +207,24 @@ fn config_prints_and_loads_back() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr_of(&out).contains("bad.toml"));
+    // well-formed but meaningless: a negative noise figure of the landmark fusion
+    let bad = write(
+        dir.path(),
+        "noise.toml",
+        "[landmarks]\npose_sigma_m = -0.01\n",
+    );
+    let out = segloc()
+        .arg("--config")
+        .arg(&bad)
+        .args(["config", "check"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr_of(&out);
+    assert!(
+        err.contains("noise.toml") && err.contains("pose_sigma_m"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -91,7 +91,13 @@ pub fn load_config(path: Option<&Path>) -> Result<RelocalizeConfig> {
     };
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read config file {}", path.display()))?;
-    toml::from_str(&text).with_context(|| format!("config file {}", path.display()))
+    let config: RelocalizeConfig =
+        toml::from_str(&text).with_context(|| format!("config file {}", path.display()))?;
+    config
+        .landmarks
+        .validate()
+        .map_err(|m| anyhow::anyhow!("config file {}: [landmarks] {m}", path.display()))?;
+    Ok(config)
 }
 
 /// Print `value` as one line of JSON on stdout.
