@@ -6,7 +6,7 @@
 //! 3 × 3 cells around it.
 
 use nalgebra::Point3;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 /// Points bucketed by their horizontal (x, y) cell.
 #[derive(Clone, Debug)]
@@ -24,7 +24,7 @@ impl GridIndex {
             } else {
                 1.0
             },
-            cells: HashMap::new(),
+            cells: HashMap::default(),
         }
     }
 

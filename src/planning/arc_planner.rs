@@ -107,8 +107,9 @@ pub struct ArcChoice {
     pub yaw_rate_rps: f64,
     /// Distance from the arc's end to the goal, metres.
     pub goal_distance_m: f64,
-    /// How many arcs were free.
-    pub free_arcs: usize,
+    /// Arcs checked for collisions until this one was found free, nearest the goal first
+    /// (1: the arc nearest the goal was free).
+    pub arcs_checked: usize,
 }
 
 /// The pose after `t_s` seconds on the arc (speed `v`, yaw rate `w`) from `start`.
@@ -127,6 +128,33 @@ pub fn arc_pose(start: Pose2, v: f64, w: f64, t_s: f64) -> Pose2 {
             yaw,
         )
     }
+}
+
+/// `steps + 1` poses evenly spaced in time over `horizon_s` seconds of the arc from
+/// `start`: [`arc_pose`] at each, with the start's sine and cosine computed once (the
+/// planner samples some 40 arcs of 80 points each control cycle).
+fn arc_points(start: Pose2, v: f64, w: f64, horizon_s: f64, steps: usize) -> Vec<Pose2> {
+    let (sin0, cos0) = start.yaw.sin_cos();
+    (0..=steps)
+        .map(|s| {
+            let t_s = s as f64 * horizon_s / steps as f64;
+            if w.abs() < 1e-9 {
+                Pose2::new(
+                    start.x + v * t_s * cos0,
+                    start.y + v * t_s * sin0,
+                    start.yaw,
+                )
+            } else {
+                let yaw = start.yaw + w * t_s;
+                let (sin, cos) = yaw.sin_cos();
+                Pose2::new(
+                    start.x + v / w * (sin - sin0),
+                    start.y + v / w * (cos0 - cos),
+                    yaw,
+                )
+            }
+        })
+        .collect()
 }
 
 /// Everything an arc is checked against.
@@ -168,16 +196,7 @@ impl ArcPlannerConfig {
     ) -> bool {
         let steps =
             ((self.horizon_s / self.sample_dt_s.max(1e-3)).ceil() as usize).clamp(1, 10_000);
-        let points: Vec<Pose2> = (0..=steps)
-            .map(|s| {
-                arc_pose(
-                    pose,
-                    speed_mps,
-                    yaw_rate_rps,
-                    s as f64 * self.horizon_s / steps as f64,
-                )
-            })
-            .collect();
+        let points = arc_points(pose, speed_mps, yaw_rate_rps, self.horizon_s, steps);
         self.path_is_free(pose, &points, scene)
     }
 
@@ -283,25 +302,25 @@ impl ArcPlannerConfig {
         } else {
             self.horizon_s
         };
-        let mut best: Option<ArcChoice> = None;
-        let mut free = 0;
-        for k in 0..self.arcs.max(1) {
-            let w = self.yaw_rate(k);
-            if !self.arc_is_free(pose, v, w, scene) {
-                continue;
-            }
-            free += 1;
-            let end = arc_pose(pose, v, w, t_end);
-            let d = (goal - Point2::new(end.x, end.y)).norm();
-            if best.is_none_or(|b| d < b.goal_distance_m) {
-                best = Some(ArcChoice {
-                    speed_mps: v,
-                    yaw_rate_rps: w,
-                    goal_distance_m: d,
-                    free_arcs: 0,
-                });
-            }
-        }
+        // the arcs by how near their ends come to the goal (ties: the lower index), checked
+        // for collisions in that order: the first free one is the choice
+        let mut order: Vec<(f64, usize)> = (0..self.arcs.max(1))
+            .map(|k| {
+                let end = arc_pose(pose, v, self.yaw_rate(k), t_end);
+                ((goal - Point2::new(end.x, end.y)).norm(), k)
+            })
+            .collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let best = order
+            .iter()
+            .enumerate()
+            .find(|(_, &(_, k))| self.arc_is_free(pose, v, self.yaw_rate(k), scene))
+            .map(|(checked, &(d, k))| ArcChoice {
+                speed_mps: v,
+                yaw_rate_rps: self.yaw_rate(k),
+                goal_distance_m: d,
+                arcs_checked: checked + 1,
+            });
         if best.is_none() && self.horizon_s > self.min_horizon_s + 1e-9 {
             let half = (0.5 * self.horizon_s).max(self.min_horizon_s);
             if !self.fallback_slows_down {
@@ -320,15 +339,26 @@ impl ArcPlannerConfig {
             };
             return slower.choose(pose, goal, scene);
         }
-        best.map(|b| ArcChoice {
-            free_arcs: free,
-            ..b
-        })
+        best
     }
 }
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn arc_points_are_arc_poses() {
+        let start = Pose2::new(1.0, -2.0, 0.7);
+        for w in [0.0, 0.3, -0.8] {
+            let points = arc_points(start, 0.4, w, 8.0, 80);
+            assert_eq!(points.len(), 81);
+            for (s, p) in points.iter().enumerate() {
+                let q = arc_pose(start, 0.4, w, s as f64 * 0.1);
+                assert!((p.x - q.x).abs() < 1e-12 && (p.y - q.y).abs() < 1e-12);
+                assert!((p.yaw - q.yaw).abs() < 1e-12);
+            }
+        }
+    }
+
     use super::*;
     use crate::planning::obstacles::ObstacleConfig;
 
@@ -350,7 +380,10 @@ mod tests {
             .choose(Pose2::new(0.0, 0.0, 0.0), Point2::new(5.0, 0.0), &s)
             .unwrap();
         assert_eq!(a.yaw_rate_rps, 0.0);
-        assert_eq!(a.free_arcs, 41);
+        assert_eq!(
+            a.arcs_checked, 1,
+            "nothing in the way: the straight arc is free"
+        );
         let b = c
             .choose(Pose2::new(0.0, 0.0, 0.0), Point2::new(2.0, 2.0), &s)
             .unwrap();

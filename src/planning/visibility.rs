@@ -3,7 +3,7 @@
 //! IPEX's cameras look only forward and backward and a rock beside the rover is invisible.
 
 use crate::planning::Pose2;
-use std::collections::HashSet;
+use rustc_hash::FxHashSet as HashSet;
 
 /// Cells on either side of the origin kept in the dense bitmap (±64 m at 0.25 m cells);
 /// the rare cells beyond go to a set.
@@ -31,7 +31,7 @@ impl SeenGrid {
                 0.25
             },
             dense: vec![false; (2 * DENSE_HALF_CELLS * 2 * DENSE_HALF_CELLS) as usize],
-            outside: HashSet::new(),
+            outside: HashSet::default(),
         }
     }
 

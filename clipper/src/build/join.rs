@@ -7,7 +7,7 @@
 //! `((i, j), (k, l))` if both associations exist. The work is proportional to the matching
 //! quads, not to the square of the association count.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use nalgebra::Point3;
 use rayon::prelude::*;
@@ -137,7 +137,7 @@ pub(crate) fn build_with_table_limit(
         }
         Lookup::Dense { n_query: nq, ids }
     } else {
-        let mut map = HashMap::with_capacity(m);
+        let mut map = HashMap::with_capacity_and_hasher(m, Default::default());
         for (r, &id) in id_of_rank.iter().enumerate() {
             let a = associations[id as usize];
             map.insert(
