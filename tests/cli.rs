@@ -184,27 +184,24 @@ fn a_failed_build_leaves_no_output_file() {
 #[test]
 fn config_prints_and_loads_back() {
     let dir = tempfile::tempdir().unwrap();
+    let check = |path: &Path| {
+        segloc()
+            .arg("--config")
+            .arg(path)
+            .args(["config", "check"])
+            .output()
+            .unwrap()
+    };
     let out = segloc().args(["config", "print"]).output().unwrap();
     assert_eq!(out.status.code(), Some(0));
     let path = write(dir.path(), "c.toml", &String::from_utf8_lossy(&out.stdout));
-    let out = segloc()
-        .arg("--config")
-        .arg(&path)
-        .args(["config", "check"])
-        .output()
-        .unwrap();
-    assert_success(&out);
+    assert_success(&check(&path));
     let bad = write(
         dir.path(),
         "bad.toml",
         "[verification]\nmin_inliers = \"many\"\n",
     );
-    let out = segloc()
-        .arg("--config")
-        .arg(&bad)
-        .args(["config", "check"])
-        .output()
-        .unwrap();
+    let out = check(&bad);
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr_of(&out).contains("bad.toml"));
     // well-formed but meaningless: a negative noise figure of the landmark fusion
@@ -213,12 +210,7 @@ fn config_prints_and_loads_back() {
         "noise.toml",
         "[landmarks]\npose_sigma_m = -0.01\n",
     );
-    let out = segloc()
-        .arg("--config")
-        .arg(&bad)
-        .args(["config", "check"])
-        .output()
-        .unwrap();
+    let out = check(&bad);
     assert_eq!(out.status.code(), Some(2));
     let err = stderr_of(&out);
     assert!(

@@ -190,15 +190,7 @@ mod tests {
         assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
     }
 
-    fn seen_from(p: Point3<f64>, rover: Point3<f64>) -> Detection {
-        Detection {
-            frame: 0,
-            p_world: p,
-            rover_position: Some(rover),
-            size_m: None,
-            score: None,
-        }
-    }
+    use crate::landmarks::detection_seen_from as seen_from;
 
     fn noise() -> StereoNoise {
         let c = FusionConfig::default();

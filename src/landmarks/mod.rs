@@ -202,6 +202,21 @@ pub fn fuse_detections(set: &DetectionSet, config: &FusionConfig) -> ObjectMap {
     map
 }
 
+/// A detection of `p` from a rover at `rover`, without size or score (for tests).
+#[cfg(test)]
+pub(crate) fn detection_seen_from(
+    p: nalgebra::Point3<f64>,
+    rover: nalgebra::Point3<f64>,
+) -> Detection {
+    Detection {
+        frame: 0,
+        p_world: p,
+        rover_position: Some(rover),
+        size_m: None,
+        score: None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

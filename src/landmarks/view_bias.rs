@@ -175,15 +175,7 @@ mod tests {
         p + Vector3::new(d.x, d.y, 0.0) * bias_m
     }
 
-    fn detection(p: Point3<f64>, rover: Point3<f64>) -> Detection {
-        Detection {
-            frame: 0,
-            p_world: p,
-            rover_position: Some(rover),
-            size_m: None,
-            score: None,
-        }
-    }
+    use crate::landmarks::detection_seen_from as detection;
 
     /// Boulders on a grid, each seen from four rovers around it; every detection drawn
     /// `bias` toward its rover.
