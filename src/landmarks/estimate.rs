@@ -12,10 +12,10 @@
 //!   mean, made robust by iteratively reweighting with a Cauchy kernel on each detection's
 //!   Mahalanobis distance, starting from the median; its covariance is the inverse of the
 //!   summed weighted information. Each detection's error also has the pose's in every
-//!   direction ([`StereoNoise::pose_sigma_m`]), so the nearest views weigh no more than
-//!   the poses that place them can support. The LAC rock map uses it
-//!   ([`crate::mapping::RockGridConfig::centroid`]): on the synthetic mission it is worth
-//!   +1.5 rock points at the median of seeds 1–10 (BENCHMARKS.md).
+//!   direction ([`FusionConfig::pose_sigma_m`]), so the nearest views weigh no more than
+//!   the poses that place them can support. The mission fuses with it
+//!   ([`crate::mission::MissionConfig`]): on the synthetic mission it is worth +7 rock
+//!   points at the median of seeds 1–10 (BENCHMARKS.md).
 //!
 //! Either way the covariance gains the repeatability floor: detections of one session
 //! agree to millimetres, but the same boulder seen from another side in another session
@@ -37,27 +37,13 @@ pub enum CentroidEstimator {
     StereoWeighted,
 }
 
-/// The stereo noise model of [`stereo_weighted`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StereoNoise {
-    /// Depth standard deviation per squared metre of range: σ_d / (f B), 1/m.
-    pub depth_sigma_per_m2: f64,
-    /// Standard deviation across the line of sight per metre of range: σ_px / f.
-    pub lateral_sigma_per_m: f64,
-    /// Standard deviation of the rover position behind each detection, m: added to the
-    /// stereo error in every direction.
-    pub pose_sigma_m: f64,
-    /// Cauchy kernel width, in standard deviations (Mahalanobis units).
-    pub cauchy_width: f64,
-}
-
 /// Reweighting rounds of [`stereo_weighted`].
 const REWEIGHTING_ROUNDS: usize = 8;
 
 /// The landmark for a cluster of detections (at least one).
 pub fn landmark_from(detections: &[&Detection], id: u32, config: &FusionConfig) -> Landmark {
     let mut landmark = match config.centroid {
-        CentroidEstimator::StereoWeighted => stereo_weighted(detections, &config.stereo_noise())
+        CentroidEstimator::StereoWeighted => stereo_weighted(detections, config)
             .map(|(position, covariance)| Landmark::new(id, position, covariance)),
         CentroidEstimator::Median => None,
     }
@@ -98,17 +84,18 @@ fn median_landmark(detections: &[&Detection], id: u32) -> Landmark {
 }
 
 /// The information matrix of one detection seen from `rover` (m⁻²): depth along the line
-/// of sight, the lateral error across it, the pose error in every direction.
+/// of sight, the lateral error across it (`config.stereo`, with the range for the depth),
+/// the pose error (`config.pose_sigma_m`) in every direction.
 fn detection_information(
     p: &Point3<f64>,
     rover: &Point3<f64>,
-    noise: &StereoNoise,
+    config: &FusionConfig,
 ) -> Matrix3<f64> {
     let sight = p - rover;
     let range = sight.norm();
-    let pose2 = noise.pose_sigma_m * noise.pose_sigma_m + 1e-12;
-    let depth2 = (noise.depth_sigma_per_m2 * range * range).powi(2) + pose2;
-    let lateral2 = (noise.lateral_sigma_per_m * range).powi(2) + pose2;
+    let pose2 = config.pose_sigma_m * config.pose_sigma_m + 1e-12;
+    let depth2 = config.stereo.depth_sigma_m(range).powi(2) + pose2;
+    let lateral2 = config.stereo.lateral_sigma_m(range).powi(2) + pose2;
     let u = if range > 1e-9 {
         sight / range
     } else {
@@ -119,18 +106,25 @@ fn detection_information(
 }
 
 /// The robust information-weighted centroid of detections with rover positions and its
-/// covariance (without the repeatability floor); `None` when a detection has no rover
-/// position or the information is singular.
+/// covariance (without the repeatability floor), with `config`'s stereo noise, pose error
+/// and Cauchy width (`outlier_width_sigmas`; 0: no kernel); `None` when a detection has no
+/// rover position or the information is singular.
 pub fn stereo_weighted(
     detections: &[&Detection],
-    noise: &StereoNoise,
+    config: &FusionConfig,
 ) -> Option<(Point3<f64>, Matrix3<f64>)> {
     let information: Vec<Matrix3<f64>> = detections
         .iter()
-        .map(|d| Some(detection_information(&d.p_world, &d.rover_position?, noise)))
+        .map(|d| {
+            Some(detection_information(
+                &d.p_world,
+                &d.rover_position?,
+                config,
+            ))
+        })
         .collect::<Option<_>>()?;
     let start = median_landmark(detections, 0).position;
-    let width2 = noise.cauchy_width * noise.cauchy_width;
+    let width2 = config.outlier_width_sigmas * config.outlier_width_sigmas;
     let mut centroid = start;
     let mut total = Matrix3::zeros();
     for _ in 0..REWEIGHTING_ROUNDS {
@@ -192,11 +186,10 @@ mod tests {
 
     use crate::landmarks::detection_seen_from as seen_from;
 
-    fn noise() -> StereoNoise {
-        let c = FusionConfig::default();
-        StereoNoise {
+    fn noise() -> FusionConfig {
+        FusionConfig {
             pose_sigma_m: 0.0,
-            ..c.stereo_noise()
+            ..FusionConfig::default()
         }
     }
 
@@ -236,8 +229,8 @@ mod tests {
         let refs: Vec<_> = dets.iter().collect();
         let (c, _) = stereo_weighted(&refs, &noise()).unwrap();
         assert!(c.y.abs() < 0.002, "{c}");
-        let plain = StereoNoise {
-            cauchy_width: 0.0,
+        let plain = FusionConfig {
+            outlier_width_sigmas: 0.0,
             ..noise()
         };
         let (c, _) = stereo_weighted(&refs, &plain).unwrap();

@@ -10,7 +10,8 @@ pub mod estimate;
 pub mod size_bias;
 pub mod view_bias;
 
-pub use estimate::{CentroidEstimator, StereoNoise};
+use crate::sim::stereo_noise::StereoNoiseConfig;
+pub use estimate::CentroidEstimator;
 use segloc_maps::{Detection, DetectionSet, ObjectMap};
 use serde::{Deserialize, Serialize};
 
@@ -55,13 +56,10 @@ pub struct FusionConfig {
     pub view_bias_size_fraction: f64,
     /// How each landmark's centroid is computed from its detections.
     pub centroid: CentroidEstimator,
-    /// [`CentroidEstimator::StereoWeighted`]: depth standard deviation per squared metre of
-    /// range, σ_d / (f B) (1/m); the default is the IPEX stereo pair's 0.3 px disparity
-    /// error over 914 px × 0.162 m.
-    pub depth_sigma_per_m2: f64,
-    /// [`CentroidEstimator::StereoWeighted`]: standard deviation across the line of sight
-    /// per metre of range, σ_px / f (0.5 px over 914 px by default).
-    pub lateral_sigma_per_m: f64,
+    /// [`CentroidEstimator::StereoWeighted`]: the stereo pair's noise (depth error growing as
+    /// the square of the range, lateral error as the range); the default is the IPEX
+    /// pair's.
+    pub stereo: StereoNoiseConfig,
     /// [`CentroidEstimator::StereoWeighted`]: standard deviation (m) of the rover position
     /// behind each detection, added to its stereo error in every direction, so that the
     /// nearest views weigh no more than the poses placing them can support (a session's
@@ -80,8 +78,8 @@ impl FusionConfig {
             (self.min_range_m, "min_range_m"),
             (self.repeatability_m, "repeatability_m"),
             (self.view_bias_sigma_m, "view_bias_sigma_m"),
-            (self.depth_sigma_per_m2, "depth_sigma_per_m2"),
-            (self.lateral_sigma_per_m, "lateral_sigma_per_m"),
+            (self.stereo.disparity_sigma_px, "stereo.disparity_sigma_px"),
+            (self.stereo.pixel_sigma_px, "stereo.pixel_sigma_px"),
             (self.pose_sigma_m, "pose_sigma_m"),
             (self.outlier_width_sigmas, "outlier_width_sigmas"),
         ];
@@ -100,17 +98,11 @@ impl FusionConfig {
         if !(self.view_bias_m.is_finite() && self.view_bias_size_fraction.is_finite()) {
             return Err("view_bias_m and view_bias_size_fraction must be finite".into());
         }
-        Ok(())
-    }
-
-    /// The stereo noise model of the weighted centroid.
-    pub fn stereo_noise(&self) -> StereoNoise {
-        StereoNoise {
-            depth_sigma_per_m2: self.depth_sigma_per_m2,
-            lateral_sigma_per_m: self.lateral_sigma_per_m,
-            pose_sigma_m: self.pose_sigma_m,
-            cauchy_width: self.outlier_width_sigmas,
+        let (focal, baseline) = (self.stereo.focal_px, self.stereo.baseline_m);
+        if !(focal.is_finite() && focal > 0.0 && baseline.is_finite() && baseline > 0.0) {
+            return Err("stereo.focal_px and stereo.baseline_m must be positive".into());
         }
+        Ok(())
     }
 }
 
@@ -126,8 +118,7 @@ impl Default for FusionConfig {
             view_bias_sigma_m: 0.0,
             view_bias_size_fraction: 0.0,
             centroid: CentroidEstimator::Median,
-            depth_sigma_per_m2: 0.3 / (914.015 * 0.162),
-            lateral_sigma_per_m: 0.5 / 914.015,
+            stereo: StereoNoiseConfig::default(),
             pose_sigma_m: 0.01,
             outlier_width_sigmas: 3.0,
         }
@@ -234,5 +225,8 @@ mod tests {
             ..FusionConfig::default()
         };
         assert!(inverted.validate().unwrap_err().contains("max_range_m"));
+        let mut blind = FusionConfig::default();
+        blind.stereo.focal_px = 0.0;
+        assert!(blind.validate().unwrap_err().contains("focal_px"));
     }
 }

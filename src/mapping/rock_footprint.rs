@@ -12,13 +12,14 @@
 //! of known size moved that far away from the rover, horizontally; the mission calibrates
 //! it from its own passes, [`crate::mission::view_bias`]), clusters with
 //! a radius wide enough to keep a large boulder's detections from different sides
-//! together, centres each boulder with the stereo-weighted centroid (near views, whose
-//! depth is good to millimetres, outweigh far ones: [`crate::landmarks::estimate`]) and
-//! paints the footprints of the boulders seen often enough. On the synthetic
+//! together, centres each boulder with the fusion's centroid (the mission's weights near
+//! views, whose depth is good to millimetres, above far ones:
+//! [`crate::landmarks::estimate`]) and paints the footprints of the boulders seen often
+//! enough. On the synthetic
 //! mission (10 seeds, BENCHMARKS.md) the face correction is worth +0.035 F1, the wider
 //! clusters +0.02, and the third observation (spurious clusters) +0.01.
 
-use crate::landmarks::{fuse_detections, CentroidEstimator, FusionConfig};
+use crate::landmarks::{fuse_detections, FusionConfig};
 use segloc_maps::{DetectionSet, LacGrid, Landmark};
 use serde::{Deserialize, Serialize};
 
@@ -42,9 +43,6 @@ pub struct RockGridConfig {
     /// [`rock_grid_from_detections`]: detections within this distance (m) of a cluster's
     /// centroid join it (replaces the fusion's radius for the rock map only).
     pub cluster_radius_m: f64,
-    /// [`rock_grid_from_detections`]: how each boulder's centre is computed from its
-    /// detections (replaces the fusion's estimator for the rock map only).
-    pub centroid: CentroidEstimator,
 }
 
 impl Default for RockGridConfig {
@@ -56,7 +54,6 @@ impl Default for RockGridConfig {
             samples_per_side: 4,
             face_offset_fraction: 1.0 / 3.0,
             cluster_radius_m: 0.3,
-            centroid: CentroidEstimator::StereoWeighted,
         }
     }
 }
@@ -84,7 +81,6 @@ pub fn rock_grid_from_detections(
         } else {
             fusion.cluster_radius_m
         },
-        centroid: config.centroid,
         ..fusion.clone()
     };
     let map = fuse_detections(detections, &fusion);

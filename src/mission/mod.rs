@@ -492,7 +492,7 @@ mod tests {
             },
             MissionConfig {
                 fusion: FusionConfig {
-                    depth_sigma_per_m2: f64::NAN,
+                    pose_sigma_m: f64::NAN,
                     ..FusionConfig::default()
                 },
                 ..MissionConfig::default()
