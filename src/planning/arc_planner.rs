@@ -114,45 +114,42 @@ pub struct ArcChoice {
 
 /// The pose after `t_s` seconds on the arc (speed `v`, yaw rate `w`) from `start`.
 pub fn arc_pose(start: Pose2, v: f64, w: f64, t_s: f64) -> Pose2 {
+    pose_on_arc(start, start.yaw.sin_cos(), v, w, t_s)
+}
+
+/// [`arc_pose`] with the start's sine and cosine given.
+fn pose_on_arc(start: Pose2, (sin0, cos0): (f64, f64), v: f64, w: f64, t_s: f64) -> Pose2 {
     if w.abs() < 1e-9 {
         Pose2::new(
-            start.x + v * t_s * start.yaw.cos(),
-            start.y + v * t_s * start.yaw.sin(),
+            start.x + v * t_s * cos0,
+            start.y + v * t_s * sin0,
             start.yaw,
         )
     } else {
         let yaw = start.yaw + w * t_s;
+        let (sin, cos) = yaw.sin_cos();
         Pose2::new(
-            start.x + v / w * (yaw.sin() - start.yaw.sin()),
-            start.y + v / w * (start.yaw.cos() - yaw.cos()),
+            start.x + v / w * (sin - sin0),
+            start.y + v / w * (cos0 - cos),
             yaw,
         )
     }
 }
 
 /// `steps + 1` poses evenly spaced in time over `horizon_s` seconds of the arc from
-/// `start`: [`arc_pose`] at each, with the start's sine and cosine computed once (the
-/// planner samples some 40 arcs of 80 points each control cycle).
+/// `start` ([`arc_pose`], the start's sine and cosine computed once: the planner samples
+/// some 40 arcs of 33 points each control cycle).
 fn arc_points(start: Pose2, v: f64, w: f64, horizon_s: f64, steps: usize) -> Vec<Pose2> {
-    let (sin0, cos0) = start.yaw.sin_cos();
+    let start_sin_cos = start.yaw.sin_cos();
     (0..=steps)
         .map(|s| {
-            let t_s = s as f64 * horizon_s / steps as f64;
-            if w.abs() < 1e-9 {
-                Pose2::new(
-                    start.x + v * t_s * cos0,
-                    start.y + v * t_s * sin0,
-                    start.yaw,
-                )
-            } else {
-                let yaw = start.yaw + w * t_s;
-                let (sin, cos) = yaw.sin_cos();
-                Pose2::new(
-                    start.x + v / w * (sin - sin0),
-                    start.y + v / w * (cos0 - cos),
-                    yaw,
-                )
-            }
+            pose_on_arc(
+                start,
+                start_sin_cos,
+                v,
+                w,
+                s as f64 * horizon_s / steps as f64,
+            )
         })
         .collect()
 }
@@ -345,6 +342,9 @@ impl ArcPlannerConfig {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::planning::obstacles::ObstacleConfig;
+
     #[test]
     fn arc_points_are_arc_poses() {
         let start = Pose2::new(1.0, -2.0, 0.7);
@@ -358,9 +358,6 @@ mod tests {
             }
         }
     }
-
-    use super::*;
-    use crate::planning::obstacles::ObstacleConfig;
 
     fn scene(obstacles: &ObstacleMemory) -> Scene<'_> {
         Scene {
