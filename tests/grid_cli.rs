@@ -120,6 +120,10 @@ fn rocks_from_a_small_traverse() {
         .output()
         .unwrap();
     assert_success(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // one traverse sees no boulder from two sessions: no viewpoint bias to estimate
+    assert_eq!(v["view_bias_m"], 0.0, "{v}");
+    assert_eq!(v["config"]["view_bias_m"], 0.0, "{v}");
     let grid = read_grid_csv(&g).unwrap();
     assert_eq!(grid.num_cells(), 32_400);
     assert_eq!(grid.filled_count(), 0);
@@ -128,6 +132,25 @@ fn rocks_from_a_small_traverse() {
     assert!(grid.rock[grid.index(i, j)]);
     let text = std::fs::read_to_string(&g).unwrap();
     assert!(text.starts_with("i,j,x,y,height,rock\n0,0,-13.425,-13.425,-inf,0\n"));
+    // a bad evidence config: exit 2 naming the file and the field, the grid untouched
+    let cfg = dir.path().join("evidence.toml");
+    std::fs::write(&cfg, "view_bias_m = 3.0\n").unwrap();
+    let out = segloc()
+        .args(["grid", "rocks", "--traverses"])
+        .arg(&t)
+        .arg("-o")
+        .arg(&g)
+        .arg("--evidence-config")
+        .arg(&cfg)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("evidence.toml") && err.contains("view_bias_m"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&g).unwrap(), text);
     // a malformed traverse: exit 2 naming the file and line
     std::fs::write(
         &t,
@@ -169,5 +192,5 @@ fn real_rock_map_scores_above_raw_counting() {
         .unwrap();
     assert_eq!(out.status.code(), Some(0));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert!(v["rock_f1"].as_f64().unwrap() >= 0.62, "{v}");
+    assert!(v["rock_f1"].as_f64().unwrap() >= 0.635, "{v}");
 }

@@ -16,6 +16,9 @@ fn rock_map_from_all_17_traverses() {
         .collect();
     let config = RockEvidenceConfig::default();
     let evidence = RockEvidence::from_traverses(&LacGrid::new_lac(), &traverses, &config);
+    // estimated from the traverses alone: 0.82 cm
+    let bias_m = evidence.config().view_bias_m.unwrap();
+    assert!((0.005..0.012).contains(&bias_m), "viewpoint bias {bias_m}");
     let grid = evidence.rock_grid();
     let s = score(&grid, &truth, None).unwrap();
     eprintln!(
@@ -27,13 +30,14 @@ fn rock_map_from_all_17_traverses() {
         s.false_positives,
         s.false_negatives
     );
-    // measured 0.632 (the raw count of detections per cell reaches 0.577 at its best
-    // threshold, 0.325 when marking every cell with a detection)
-    assert!(s.rock_f1 >= 0.62, "F1 {}", s.rock_f1);
+    // measured 0.642 with the viewpoint bias estimated from the traverses, 0.632 without
+    // (the raw count of detections per cell reaches 0.577 at its best threshold, 0.325
+    // when marking every cell with a detection)
+    assert!(s.rock_f1 >= 0.635, "F1 {}", s.rock_f1);
     assert!(s.rock_precision >= 0.75, "precision {}", s.rock_precision);
     // the thresholds hold up on cells they were not tuned on
     let rates: Vec<f64> = (1..=30).map(|k| 0.01 * k as f64).collect();
     let cv = cross_validate(&evidence, &truth, &[1, 2, 3], &rates, 4);
     eprintln!("4-sector cross-validated F1 {:.4}", cv.held_out.f1);
-    assert!(cv.held_out.f1 >= 0.61, "held-out F1 {}", cv.held_out.f1);
+    assert!(cv.held_out.f1 >= 0.63, "held-out F1 {}", cv.held_out.f1);
 }

@@ -99,18 +99,28 @@ pub fn run(cmd: &GridCommand) -> Result<i32> {
             let grid = evidence.rock_grid();
             write_grid_csv(&grid, output).context("writing the rock grid")?;
             let detections: usize = loaded.iter().map(Traverse::num_detections).sum();
+            let used = evidence.config();
+            let bias_m = used.view_bias_m.unwrap_or(0.0);
+            let bias_source = if config.view_bias_m.is_some() {
+                "configured"
+            } else {
+                "estimated from the traverses"
+            };
             if *json {
                 print_json(&json!({
                     "output": output, "traverses": loaded.len(), "detections": detections,
-                    "views": evidence.views, "rock_cells": grid.rock_count(), "config": config,
+                    "views": evidence.views, "rock_cells": grid.rock_count(),
+                    "view_bias_m": bias_m, "view_bias_source": bias_source, "config": used,
                 }))?;
             } else {
                 println!(
-                    "{} rock cells from {} detections in {} traverses ({} views) -> {}",
+                    "{} rock cells from {} detections in {} traverses ({} views; viewpoint bias {:.2} cm, {}) -> {}",
                     grid.rock_count(),
                     detections,
                     loaded.len(),
                     evidence.views,
+                    100.0 * bias_m,
+                    bias_source,
                     output.display()
                 );
             }
@@ -178,7 +188,7 @@ pub fn run(cmd: &GridCommand) -> Result<i32> {
             if *json {
                 print_json(&json!({
                     "cross_validation": cv, "default": at_default.first(), "best_in_sample": best,
-                    "sensitivity": table,
+                    "sensitivity": table, "config": evidence.config(),
                 }))?;
             } else {
                 let h = &cv.held_out;
@@ -228,5 +238,10 @@ fn load_evidence_config(path: Option<&Path>) -> Result<RockEvidenceConfig> {
     };
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    toml::from_str(&text).with_context(|| format!("evidence config {}", path.display()))
+    let config: RockEvidenceConfig =
+        toml::from_str(&text).with_context(|| format!("evidence config {}", path.display()))?;
+    config
+        .validate()
+        .map_err(|e| anyhow::anyhow!("evidence config {}: {e}", path.display()))?;
+    Ok(config)
 }

@@ -16,6 +16,14 @@
 //! A cell is a rock when it has at least `min_hits` hits and `hits / exposure` is at least
 //! `min_rate`: the hits are far more than the view alone explains.
 //!
+//! A detection's centroid lies on the face the camera sees, in front of the boulder's
+//! centre ([`crate::landmarks::view_bias`]). Each detection is pushed back along its
+//! horizontal line of sight by the viewpoint bias before it votes; the bias is estimated
+//! from the traverses themselves (boulders seen from several sides), not from any ground
+//! truth. On the 17 LunarLoc traverses the estimate is 0.82 cm; it moves 6 % of the votes
+//! to the next cell back, and the false positives drop from 124 to 114 while the true
+//! positives rise from 449 to 455 (F1 0.632 → 0.642 against the LAC ground truth).
+//!
 //! The LunarLoc traverses give rover positions but no orientation: the heading of a frame
 //! is the direction of travel over ± `heading_window_frames`, replaced by the circular
 //! mean bearing of the frame's detections when the rover barely moved or a detection lies
@@ -24,9 +32,10 @@
 //! is the median gap between frames with detections, and frames at that cadence without
 //! detections count as views too.
 
+use crate::landmarks::{view_bias, FusionConfig};
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
-use segloc_maps::{LacGrid, Traverse};
+use segloc_maps::{DetectionSet, LacGrid, Traverse};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the detection evidence grid (defaults tuned on the real LunarLoc
@@ -52,6 +61,12 @@ pub struct RockEvidenceConfig {
     pub heading_window_frames: usize,
     /// Motion (m) below which the heading comes from the detections instead.
     pub min_heading_motion_m: f64,
+    /// Viewpoint bias (m): each detection is pushed this far away from its rover along the
+    /// horizontal line of sight before it votes (0 = no correction). Unset (omitted from
+    /// the TOML), [`RockEvidence::from_traverses`] estimates it from the traverses
+    /// ([`view_bias::estimate_view_bias`], the median over boulders seen from several
+    /// sides) and a bare [`RockEvidence::new`] uses 0.
+    pub view_bias_m: Option<f64>,
 }
 
 impl Default for RockEvidenceConfig {
@@ -66,6 +81,61 @@ impl Default for RockEvidenceConfig {
             min_rate: 0.11,
             heading_window_frames: 20,
             min_heading_motion_m: 0.1,
+            view_bias_m: None,
+        }
+    }
+}
+
+impl RockEvidenceConfig {
+    /// Check every field: a message naming the first bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("max_range_m", self.max_range_m),
+            ("half_fov_deg", self.half_fov_deg),
+            ("reference_range_m", self.reference_range_m),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be a positive number, got {v}"));
+            }
+        }
+        let non_negative = [
+            ("min_range_m", self.min_range_m),
+            ("range_exponent", self.range_exponent),
+            ("min_rate", self.min_rate),
+            ("min_heading_motion_m", self.min_heading_motion_m),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{name} must be a non-negative number, got {v}"));
+            }
+        }
+        if self.min_range_m >= self.max_range_m {
+            return Err(format!(
+                "min_range_m ({}) must be below max_range_m ({})",
+                self.min_range_m, self.max_range_m
+            ));
+        }
+        if let Some(b) = self.view_bias_m {
+            if !(b.is_finite() && b.abs() <= 0.5) {
+                return Err(format!(
+                    "view_bias_m must be a number within ±0.5 m, got {b}"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// This configuration with the viewpoint bias set: the configured one, or else the
+    /// estimate from `traverses` (0 when no boulder is seen by two of them).
+    pub fn with_view_bias_from(&self, traverses: &[Traverse]) -> Self {
+        let bias = self.view_bias_m.unwrap_or_else(|| {
+            let sets: Vec<DetectionSet> = traverses.iter().map(Traverse::detections).collect();
+            view_bias::estimate_view_bias(&sets, &FusionConfig::default()).map_or(0.0, |b| b.bias_m)
+        });
+        Self {
+            view_bias_m: Some(bias),
+            ..self.clone()
         }
     }
 }
@@ -116,12 +186,15 @@ impl RockEvidence {
         }
         self.views += 1;
         let (r_min, r_max) = (c.min_range_m, c.max_range_m);
+        let bias = c.view_bias_m.unwrap_or(0.0);
         for d in detections_world {
-            let range = (d.xy() - rover_world.xy()).norm();
+            let sight = d.xy() - rover_world.xy();
+            let range = sight.norm();
             if range < r_min || range > r_max {
                 continue;
             }
-            if let Some((i, j)) = self.geometry.cell_of(d.x, d.y) {
+            let centre = d.xy() + sight * (bias / range);
+            if let Some((i, j)) = self.geometry.cell_of(centre.x, centre.y) {
                 let k = self.geometry.index(i, j);
                 self.hits[k] += 1.0;
             }
@@ -171,12 +244,15 @@ impl RockEvidence {
         }
     }
 
-    /// Evidence from many traverses, one thread per traverse.
+    /// Evidence from many traverses, one thread per traverse, with the viewpoint bias
+    /// estimated from them unless `config` sets it ([`RockEvidenceConfig::with_view_bias_from`];
+    /// [`RockEvidence::config`] then holds the value used).
     pub fn from_traverses(
         grid: &LacGrid,
         traverses: &[Traverse],
         config: &RockEvidenceConfig,
     ) -> Self {
+        let config = &config.with_view_bias_from(traverses);
         traverses
             .par_iter()
             .map(|t| {
@@ -380,6 +456,102 @@ mod tests {
             frames: vec![],
         };
         assert!(traverse_views(&empty, &RockEvidenceConfig::default()).is_empty());
+    }
+
+    #[test]
+    fn the_viewpoint_bias_moves_a_vote_back_along_the_line_of_sight() {
+        let grid = LacGrid::new(100, 0.15);
+        // a detection 1 cm in front of a cell edge, seen from 3 m along +x
+        let (edge_x, _) = grid.cell_center(60, 50);
+        let edge_x = edge_x + 0.075;
+        let detection = Point3::new(edge_x - 0.01, 0.0, 0.1);
+        let rover = Point3::new(edge_x - 3.0, 0.0, 0.0);
+        let vote = |bias: Option<f64>| {
+            let config = RockEvidenceConfig {
+                view_bias_m: bias,
+                ..RockEvidenceConfig::default()
+            };
+            let mut e = RockEvidence::new(&grid, &config);
+            e.add_view(&rover, 0.0, &[detection]);
+            let k = e.hits.iter().position(|&h| h > 0.0).unwrap();
+            (k / grid.cells_per_side, k % grid.cells_per_side)
+        };
+        assert_eq!(vote(None), (60, 50));
+        assert_eq!(vote(Some(0.0)), (60, 50));
+        assert_eq!(vote(Some(0.02)), (61, 50)); // pushed 2 cm away from the rover
+        assert_eq!(vote(Some(-0.1)), (60, 50));
+    }
+
+    #[test]
+    fn the_viewpoint_bias_is_estimated_from_boulders_seen_from_both_sides() {
+        // two traverses pass a row of boulders, one on each side; every detection lies
+        // 1.5 cm in front of its boulder
+        let boulders: Vec<Point3<f64>> = (0..20)
+            .map(|k| Point3::new(0.5 * k as f64, 0.0, 0.1))
+            .collect();
+        let pass = |name: &str, side: f64| {
+            let frames = (0..100u64)
+                .map(|f| {
+                    let rover = Point3::new(0.1 * f as f64, 3.0 * side, 0.0);
+                    let seen = boulders
+                        .iter()
+                        .filter(|b| (b.xy() - rover.xy()).norm() < 5.0)
+                        .map(|b| {
+                            let u = (rover.xy() - b.xy()).normalize();
+                            Point3::new(b.x + 0.015 * u.x, b.y + 0.015 * u.y, b.z)
+                        })
+                        .collect();
+                    TraverseFrame {
+                        frame: f,
+                        rover_position: rover,
+                        boulders: seen,
+                    }
+                })
+                .collect();
+            Traverse {
+                name: name.into(),
+                frames,
+            }
+        };
+        let traverses = [pass("north", 1.0), pass("south", -1.0)];
+        let config = RockEvidenceConfig::default().with_view_bias_from(&traverses);
+        let bias = config.view_bias_m.unwrap();
+        assert!((bias - 0.015).abs() < 0.002, "bias {bias}");
+        let fixed = RockEvidenceConfig {
+            view_bias_m: Some(0.0),
+            ..RockEvidenceConfig::default()
+        };
+        assert_eq!(fixed.with_view_bias_from(&traverses).view_bias_m, Some(0.0));
+        // one traverse: no boulder is seen by two, nothing to estimate from
+        let one = RockEvidenceConfig::default().with_view_bias_from(&traverses[..1]);
+        assert_eq!(one.view_bias_m, Some(0.0));
+    }
+
+    #[test]
+    fn validate_names_the_bad_field() {
+        assert!(RockEvidenceConfig::default().validate().is_ok());
+        let bad = |c: RockEvidenceConfig| c.validate().unwrap_err();
+        let d = RockEvidenceConfig::default;
+        assert!(bad(RockEvidenceConfig {
+            min_rate: -1.0,
+            ..d()
+        })
+        .contains("min_rate"));
+        assert!(bad(RockEvidenceConfig {
+            max_range_m: f64::NAN,
+            ..d()
+        })
+        .contains("max_range_m"));
+        assert!(bad(RockEvidenceConfig {
+            min_range_m: 7.0,
+            ..d()
+        })
+        .contains("min_range_m"));
+        let far = RockEvidenceConfig {
+            view_bias_m: Some(2.0),
+            ..d()
+        };
+        assert!(bad(far).contains("view_bias_m"));
     }
 
     #[test]
