@@ -10,7 +10,7 @@ repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
 data="${SEGLOC_DATA:-../shared/data}"
 [ -d "$data/lunarloc" ] || { echo "bench_relocalization: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
-cargo build --release --quiet
+cargo build --release --quiet --bin segloc --example submap_negatives
 bin=target/release/segloc
 out=target/bench
 mkdir -p "$out"
@@ -23,6 +23,10 @@ echo "[bench_relocalization] paper pairs 6-DOF" >&2
 $bin eval lunarloc --data "$data" --pairs paper --trials 20 --seed 1 --dof 6 --json > "$out/paper6.json"
 echo "[bench_relocalization] all 136 pairs 4-DOF" >&2
 $bin eval lunarloc --data "$data" --pairs all --trials 10 --seed 1 --dof 4 --json > "$out/all4.json"
+echo "[bench_relocalization] negatives: mirrored traverses and submaps" >&2
+$bin eval lunarloc --data "$data" --pairs all --negatives --trials 20 --seed 1 --dof 4 --json > "$out/negatives.json"
+SEGLOC_DATA="$data" target/release/examples/submap_negatives 600 > "$out/submaps_negative.txt"
+SEGLOC_DATA="$data" target/release/examples/submap_negatives 600 positives > "$out/submaps_positive.txt"
 
 python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" <<'PY'
 import json, re, sys
@@ -78,6 +82,38 @@ w(f"- pairs sharing ≥ 8 true common landmarks: {sum(1 for p in a4['pairs'] if 
 w(f"- fewest true common landmarks of any pair: {min(p['true_common'] for p in a4['pairs'])} (every traverse passes near the lander, so every pair overlaps)")
 w(f"- translation error mean {cm(t['translation_error_m']['mean'])} cm, median {cm(t['translation_error_m']['median'])} cm, max {cm(t['translation_error_m']['max'])} cm; rotation error max {t['rotation_error_deg']['max']:.3f}°")
 w(f"- time per relocalization: median {t['time_ms']['median']:.1f} ms, mean {t['time_ms']['mean']:.1f} ms, max {t['time_ms']['max']:.0f} ms (largest maps: traverse 13, ~500 landmarks)")
+w("")
+n = json.load(open(f"{out}/negatives.json"))["totals"]
+sub_neg = open(f"{out}/submaps_negative.txt").read().strip().splitlines()
+sub_pos = open(f"{out}/submaps_positive.txt").read().strip().splitlines()
+w("### Negatives: maps no rigid motion aligns")
+w("")
+w("A traverse mirrored in x keeps a real map's density, spacing and extent, but no rigid motion maps it onto any "
+  "traverse, its own original included: every accepted answer is a false accept (4-DOF only: in 6-DOF a mirrored, "
+  "nearly planar boulder field is the original turned upside down).")
+w("")
+w("`segloc eval lunarloc --pairs all --negatives --trials 20 --seed 1 --dof 4` (the 136 pairs and every traverse "
+  f"against its own mirror image): **{n['false_accepts']} accepted of {n['trials']}**; time per attempt median "
+  f"{n['time_ms']['median']:.1f} ms.")
+w("")
+w("`cargo run --release --example submap_negatives -- 600 [positives]`: every traverse cut into 30 s windows "
+  "(600 frames), each window's submap relocalized against the full map of every traverse, as a SLAM loop closure does. "
+  "Mirrored windows:")
+w("")
+for line in sub_neg[-2:]:
+    w(f"    {line}")
+w("")
+w("True windows against the other traverses' maps (an answer off by more than 10 cm or 1° at the lander is listed; "
+  "the last line compares every accepted answer's rotation error with the yaw σ its information matrix reports):")
+w("")
+for line in sub_pos:
+    w(f"    {line}")
+w("")
+w("Reading (2026-11-24): the answers listed are the right associations with an imprecise yaw — 6–7 inliers in "
+  "submaps of 8–16 landmarks, spread over 0.3–0.6 m — and their information matrices say so: each error is "
+  "1.3–2.9 times the reported yaw σ, and over all accepted answers the errors roughly follow the reported σ (93 % within 2σ, "
+  "99 % within 3σ). A caller that weighs or gates the answers by their information, as the mission's fix gate does, "
+  "is not misled; one that needs 1° at 15 m from a 30 s submap should ask for more inliers (`min_inliers`).")
 w("")
 w("### Landmark quality against the LAC ground-truth rock cells")
 w("")

@@ -3,7 +3,7 @@
 mod common;
 
 use segloc::align::Dof;
-use segloc::eval::lunarloc::{evaluate, EvalOptions, PAPER_PAIRS};
+use segloc::eval::lunarloc::{all_pairs, evaluate, self_pairs, EvalOptions, PAPER_PAIRS};
 use segloc::relocalize::RelocalizeConfig;
 
 fn run(dof: Dof, trials: usize) -> segloc::eval::lunarloc::EvalReport {
@@ -17,6 +17,7 @@ fn run(dof: Dof, trials: usize) -> segloc::eval::lunarloc::EvalReport {
         trials,
         seed: 1,
         dof,
+        negatives: false,
     };
     evaluate(&data, &options, &config, |_, _| {}).expect("evaluation runs")
 }
@@ -102,4 +103,33 @@ fn disjoint_real_maps_are_refused() {
         }
     }
     assert!(attempts >= 9, "only {attempts} attempts");
+}
+
+/// Every traverse mirrored in x, against every traverse and its own original: no rigid
+/// motion aligns them, so nothing may be accepted (measured: 0 of 3,060 with 20 trials).
+#[test]
+fn mirrored_traverses_are_never_accepted() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let mut pairs = all_pairs();
+    pairs.extend(self_pairs());
+    let options = EvalOptions {
+        pairs,
+        trials: 1,
+        seed: 3,
+        dof: Dof::Four,
+        negatives: true,
+    };
+    let config = RelocalizeConfig::default();
+    let report = evaluate(&data, &options, &config, |_, _| {}).expect("evaluation runs");
+    assert_eq!(report.totals.trials, 153);
+    assert_eq!(report.totals.successes, 0);
+    assert_eq!(report.totals.false_accepts, 0, "{:?}", report.totals);
+    // in 6-DOF a mirrored field is the original upside down: refused as an evaluation
+    let six = EvalOptions {
+        dof: Dof::Six,
+        ..options
+    };
+    assert!(evaluate(&data, &six, &config, |_, _| {}).is_err());
 }

@@ -7,7 +7,7 @@ use clap::Subcommand;
 use segloc::align::Dof;
 use segloc::eval::landmark_quality::{match_map, match_rocks};
 use segloc::eval::lunarloc::{
-    all_pairs, evaluate, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
+    all_pairs, evaluate, self_pairs, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
 };
 use segloc::eval::merge::{evaluate_merge, merged_rock_map, MergeEvalOptions};
 use segloc::eval::traverse_path;
@@ -28,6 +28,11 @@ pub enum EvalCommand {
         /// Which pairs: the five of the LunarLoc paper, or all 136.
         #[arg(long, default_value = "paper", value_parser = ["paper", "all"])]
         pairs: String,
+        /// Negatives: mirror every query traverse in x, so that no answer is right and
+        /// every acceptance counts as a false accept; the pairs gain each traverse against
+        /// its own mirror image.
+        #[arg(long)]
+        negatives: bool,
         /// Random transforms per pair.
         #[arg(long, default_value_t = 20)]
         trials: usize,
@@ -93,6 +98,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
         EvalCommand::Lunarloc {
             data,
             pairs,
+            negatives,
             trials,
             seed,
             dof,
@@ -104,15 +110,20 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             let dof = parse_dof(Some(dof)).unwrap_or(Dof::Four);
             let mut config = config.clone();
             config.dof = Some(dof);
+            let mut chosen = if pairs == "all" {
+                all_pairs()
+            } else {
+                PAPER_PAIRS.to_vec()
+            };
+            if *negatives {
+                chosen.extend(self_pairs());
+            }
             let options = EvalOptions {
-                pairs: if pairs == "all" {
-                    all_pairs()
-                } else {
-                    PAPER_PAIRS.to_vec()
-                },
+                pairs: chosen,
                 trials: *trials,
                 seed: *seed,
                 dof,
+                negatives: *negatives,
             };
             let bar = indicatif::ProgressBar::new(options.pairs.len() as u64);
             bar.set_style(
@@ -292,6 +303,13 @@ fn print_table(report: &EvalReport) {
         );
     }
     let t = &report.totals;
+    if report.negatives {
+        println!(
+            "negatives (queries mirrored in x, no answer is right): accepted {} of {} (every one a false accept); time ms: mean {:.1} max {:.1}",
+            t.false_accepts, t.trials, t.time_ms.mean, t.time_ms.max
+        );
+        return;
+    }
     println!(
         "success {}/{} ({:.1}%), false accepts {}, pairs with >= 8 common: {}/{}",
         t.successes,

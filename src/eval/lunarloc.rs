@@ -6,6 +6,14 @@
 //! and relocalized against the prior traverse's map. The traverses share one world frame,
 //! so the truth is the applied transform, and the truly common landmarks are the mutual
 //! nearest neighbours within 10 cm between the two maps fused in the world frame.
+//!
+//! With [`EvalOptions::negatives`] the query traverse is mirrored in x before it is moved
+//! ([`super::mirrored_x`]): it keeps a real map's density and spacing, but no rigid motion
+//! aligns it with any traverse, its own original included, so every accepted answer is a
+//! false accept. This measures how often the relocalizer is fooled by chance geometry.
+//! Negatives need the 4-DOF model: in 6-DOF a mirrored boulder field, nearly planar, is
+//! close to the original turned upside down (a rotation of 180° about y), a rigid motion
+//! that gravity alone rules out.
 
 use super::{transform_error, traverse_path};
 use crate::align::refine::mutual_nearest;
@@ -46,6 +54,8 @@ pub struct EvalOptions {
     pub seed: u64,
     /// Motion model.
     pub dof: Dof,
+    /// Mirror every query in x: no answer is right, every acceptance a false accept.
+    pub negatives: bool,
 }
 
 /// One trial's outcome.
@@ -157,12 +167,20 @@ pub struct EvalReport {
     pub trials_per_pair: usize,
     /// Seed.
     pub seed: u64,
+    /// Whether the queries were mirrored ([`EvalOptions::negatives`]).
+    pub negatives: bool,
     /// Per pair.
     pub pairs: Vec<PairReport>,
     /// Totals.
     pub totals: Totals,
     /// The configuration it ran with.
     pub config: RelocalizeConfig,
+}
+
+/// Every traverse against the mirror image of itself: the 17 pairs (n, n), the hardest
+/// negatives (the same boulder statistics and extent).
+pub fn self_pairs() -> Vec<(usize, usize)> {
+    (1..=TRAVERSES).map(|n| (n, n)).collect()
 }
 
 /// All pairs (a, b) with a < b of the 17 traverses: 136 pairs.
@@ -200,6 +218,14 @@ pub fn evaluate(
     config: &RelocalizeConfig,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<EvalReport, MapError> {
+    if options.negatives && options.dof != Dof::Four {
+        return Err(MapError::InvalidData {
+            what: "evaluation",
+            message: "mirrored negatives need the 4-DOF model: in 6-DOF a mirrored, nearly \
+                      planar boulder field is the original turned upside down"
+                .into(),
+        });
+    }
     let mut traverses: BTreeMap<usize, Traverse> = BTreeMap::new();
     for &(a, b) in &options.pairs {
         for n in [a, b] {
@@ -227,7 +253,7 @@ pub fn evaluate(
         let trials = (0..options.trials)
             .map(|_| {
                 let truth = random_transform(&mut rng, options.dof);
-                run_trial(&relocalizer, &traverses[&b], &truth, options.dof, config)
+                run_trial(&relocalizer, &traverses[&b], &truth, options, config)
             })
             .collect::<Vec<_>>();
         reports.push(PairReport {
@@ -235,7 +261,11 @@ pub fn evaluate(
             query: b,
             prior_landmarks: world_maps[&a].len(),
             query_landmarks: world_maps[&b].len(),
-            true_common: common_landmarks(&world_maps[&a], &world_maps[&b]),
+            true_common: if options.negatives {
+                0
+            } else {
+                common_landmarks(&world_maps[&a], &world_maps[&b])
+            },
             successes: trials.iter().filter(|t| t.correct).count(),
             false_accepts: trials.iter().filter(|t| t.accepted && !t.correct).count(),
             trials,
@@ -246,24 +276,28 @@ pub fn evaluate(
         dof: options.dof.count(),
         trials_per_pair: options.trials,
         seed: options.seed,
+        negatives: options.negatives,
         totals: totals(&reports),
         pairs: reports,
         config: config.clone(),
     })
 }
 
-/// One trial: move the query traverse by `truth⁻¹` (so that `prior_from_query = truth`),
-/// fuse it, relocalize, compare.
+/// One trial: move the query traverse by `truth⁻¹` (so that `prior_from_query = truth`;
+/// mirrored first for negatives), fuse it, relocalize, compare.
 fn run_trial(
     relocalizer: &Relocalizer,
     query_traverse: &Traverse,
     truth: &Isometry3<f64>,
-    dof: Dof,
+    options: &EvalOptions,
     config: &RelocalizeConfig,
 ) -> Trial {
-    let moved = query_traverse.transformed(&truth.inverse());
-    let mut detections = moved.detections();
-    detections.gravity_aligned = dof == Dof::Four;
+    let mut world = query_traverse.detections();
+    if options.negatives {
+        world = super::mirrored_x(&world);
+    }
+    let mut detections = world.transformed(&truth.inverse(), "query");
+    detections.gravity_aligned = options.dof == Dof::Four;
     let query_map = fuse_detections(&detections, &config.landmarks);
     let started = std::time::Instant::now();
     let outcome = relocalizer.relocalize(&query_map);
@@ -271,7 +305,8 @@ fn run_trial(
     match outcome {
         Ok(answer) => {
             let errors = answer.prior_from_query.map(|t| transform_error(&t, truth));
-            let correct = errors.is_some_and(|(t, r)| t <= FALSE_ACCEPT_M && r <= FALSE_ACCEPT_DEG);
+            let correct = !options.negatives
+                && errors.is_some_and(|(t, r)| t <= FALSE_ACCEPT_M && r <= FALSE_ACCEPT_DEG);
             Trial {
                 accepted: answer.is_accepted(),
                 correct,

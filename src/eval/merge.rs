@@ -13,7 +13,7 @@ use crate::align::Dof;
 use crate::landmarks::fuse_detections;
 use crate::merge::{merge_maps, MapStatus, MergeConfig};
 use crate::relocalize::RelocalizeConfig;
-use nalgebra::{Isometry3, Point3};
+use nalgebra::Isometry3;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -125,7 +125,7 @@ pub fn evaluate_merge(
             let truth = random_transform(&mut rng, Dof::Four);
             let mut set = detections[n - 1].clone();
             if decoy {
-                set = mirrored(&set);
+                set = super::mirrored_x(&set);
                 set.session = format!("decoy_{n}");
             }
             let moved = set.transformed(&truth.inverse(), "agent");
@@ -165,17 +165,6 @@ pub fn evaluate_merge(
     }
     progress(options.trials, options.trials);
     Ok(summarise(trials))
-}
-
-/// A detection set mirrored in x (rover positions too).
-fn mirrored(set: &DetectionSet) -> DetectionSet {
-    let flip = |p: &Point3<f64>| Point3::new(-p.x, p.y, p.z);
-    let mut out = set.clone();
-    for d in &mut out.detections {
-        d.p_world = flip(&d.p_world);
-        d.rover_position = d.rover_position.as_ref().map(flip);
-    }
-    out
 }
 
 fn summarise(trials: Vec<MergeTrial>) -> MergeEvalReport {

@@ -10,7 +10,20 @@ pub mod landmark_quality;
 pub mod lunarloc;
 pub mod merge;
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Point3};
+use segloc_maps::DetectionSet;
+
+/// A detection set mirrored in x (rover positions too): the statistics of a real map, but
+/// no rigid motion maps it onto the original, so every alignment of the two is wrong.
+pub fn mirrored_x(set: &DetectionSet) -> DetectionSet {
+    let flip = |p: &Point3<f64>| Point3::new(-p.x, p.y, p.z);
+    let mut out = set.clone();
+    for d in &mut out.detections {
+        d.p_world = flip(&d.p_world);
+        d.rover_position = d.rover_position.as_ref().map(flip);
+    }
+    out
+}
 
 /// Translation error (m) and rotation error (degrees) of an estimate against the truth,
 /// both `prior_from_query`: the error transform `estimate · truth⁻¹` acts in the prior
