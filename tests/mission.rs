@@ -42,6 +42,22 @@ fn global_factors_reduce_session_two_error_and_no_wrong_relocalization() {
     assert!(r.realtime_factor > 1.0);
 }
 
+/// Session 1 closing its loops while it drives, its planner in the corrected frame (off by
+/// default: BENCHMARKS.md has the 20 seeds).
+#[test]
+fn online_loop_closures_run() {
+    let config = MissionConfig {
+        seconds_per_session: 120.0,
+        online_loop_closures: true,
+        ..MissionConfig::default()
+    };
+    let out = run_mission(3, &config).unwrap();
+    let r = &out.report;
+    assert_eq!(r.relocalizations.wrong_accepted, 0, "{:?}", r.attempts);
+    assert!(r.sessions[0].rmse_m < 0.05, "{:?}", r.sessions[0]);
+    assert!(r.sessions[0].distance_m > 20.0, "{:?}", r.sessions[0]);
+}
+
 #[test]
 fn cli_json_has_the_report_fields() {
     let dir = tempfile::tempdir().unwrap();

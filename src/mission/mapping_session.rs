@@ -71,12 +71,19 @@ pub fn map_session(
         ..config.session.clone()
     };
     let mut sim = SessionSim::new(moon, &session, seed)?;
+    let mut online =
+        (config.loop_closures && config.online_loop_closures).then(|| OnlineClosures::new(config));
     while sim.step() {
         progress.update(MissionStage::Driving {
             session: 1,
             time_s: sim.log().ticks.last().map_or(0.0, |t| t.time_s),
             duration_s: session.duration_s,
         });
+        if let Some(online) = online.as_mut() {
+            if let Some(planner_from_session) = online.advance(sim.log(), config)? {
+                sim.reanchor_planner(&planner_from_session);
+            }
+        }
     }
     let log = sim.finish();
     let mut graph = TrajectoryGraph::new();
@@ -147,26 +154,47 @@ fn loop_closures(
     graph: &mut TrajectoryGraph,
     view_bias: &mut ViewBiasCalibration,
 ) -> Result<Vec<Attempt>, MissionError> {
-    let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
-    let start_end = start_frames(log, config);
-    let mut attempts = Vec::new();
-    let mut gate = ClosureGate::default();
-    let mut t = config.relocalize_period_s;
+    let mut closer = LoopCloser::default();
     let end = log.frames.last().map_or(0.0, |f| f.time_s);
+    let mut t = config.relocalize_period_s;
     while t <= end + 1e-9 {
-        let now = t;
+        closer.close_at(t, log, config, graph, view_bias)?;
         t += config.relocalize_period_s;
+    }
+    Ok(closer.attempts)
+}
+
+/// The loop-closure state carried from one period to the next.
+#[derive(Default)]
+struct LoopCloser {
+    attempts: Vec<Attempt>,
+    gate: ClosureGate,
+}
+
+impl LoopCloser {
+    /// The closures of the period ending at `now`: the submap of the frames up to `now`
+    /// against the start map and the earlier map. Returns whether the graph changed.
+    fn close_at(
+        &mut self,
+        now: f64,
+        log: &SessionLog,
+        config: &MissionConfig,
+        graph: &mut TrajectoryGraph,
+        view_bias: &mut ViewBiasCalibration,
+    ) -> Result<bool, MissionError> {
+        let frame_at = |t: f64| log.frames.iter().position(|f| f.time_s >= t);
         let Some(k) = log.frames.iter().rposition(|f| f.time_s <= now + 1e-9) else {
-            continue;
+            return Ok(false);
         };
         let first = frame_at(now - config.submap_window_s).unwrap_or(0);
         let Some(old_end) = frame_at(now - config.submap_window_s - config.loop_closure_gap_s)
         else {
-            continue;
+            return Ok(false);
         };
         if old_end < 10 {
-            continue;
+            return Ok(false);
         }
+        let start_end = start_frames(log, config);
         view_bias.update(log, &graph.poses_in_prior(), now, &config.fusion);
         let fusion = view_bias.fusion(&config.fusion);
         let mut references = Vec::with_capacity(2);
@@ -185,12 +213,86 @@ fn loop_closures(
             fixed_frame: None,
             fusion,
         });
+        let mut changed = false;
         for reference in &references {
-            let closure = close_loop(log, config, graph, reference, first..k + 1, &mut attempts)?;
-            gate.submit(closure, &mut attempts, graph, config)?;
+            let closure = close_loop(
+                log,
+                config,
+                graph,
+                reference,
+                first..k + 1,
+                &mut self.attempts,
+            )?;
+            changed |= self
+                .gate
+                .submit(closure, &mut self.attempts, graph, config)?;
+        }
+        Ok(changed)
+    }
+}
+
+/// Session 1's loop closures while it drives, for its planner: every period the graph is
+/// extended with the new frames (and their lander factors), the loops are closed as after
+/// the drive, and the latest pose's correction is the planner's frame.
+struct OnlineClosures {
+    graph: TrajectoryGraph,
+    view_bias: ViewBiasCalibration,
+    closer: LoopCloser,
+    next_s: f64,
+    lander_done: usize,
+}
+
+impl OnlineClosures {
+    fn new(config: &MissionConfig) -> Self {
+        Self {
+            graph: TrajectoryGraph::new(),
+            view_bias: ViewBiasCalibration::new(&config.view_bias),
+            closer: LoopCloser::default(),
+            next_s: config.relocalize_period_s,
+            lander_done: 0,
         }
     }
-    Ok(attempts)
+
+    /// At the end of each period, when the graph changed: `planner_from_session` of every
+    /// frame so far (its optimised pose composed with the inverse of its odometry pose).
+    fn advance(
+        &mut self,
+        log: &SessionLog,
+        config: &MissionConfig,
+    ) -> Result<Option<Vec<Isometry3<f64>>>, MissionError> {
+        let Some(last) = log.frames.last() else {
+            return Ok(None);
+        };
+        if last.time_s + 1e-9 < self.next_s {
+            return Ok(None);
+        }
+        let now = self.next_s;
+        self.next_s += config.relocalize_period_s;
+        self.graph.extend(log, config)?;
+        let mut changed = false;
+        if config.lander_factors {
+            let frames = self.graph.frames;
+            let range = self.lander_done..frames;
+            self.lander_done = frames;
+            if add_lander_factors(&mut self.graph, log, range, false, config)? > 0 {
+                self.graph.optimize()?;
+                changed = true;
+            }
+        }
+        changed |= self
+            .closer
+            .close_at(now, log, config, &mut self.graph, &mut self.view_bias)?;
+        if !changed {
+            return Ok(None);
+        }
+        let corrections = (0..self.graph.frames)
+            .map_while(|k| {
+                let tick = log.ticks.get(log.frames.get(k)?.tick)?;
+                Some(self.graph.pose_or_identity(k) * tick.session_from_rover.inverse())
+            })
+            .collect();
+        Ok(Some(corrections))
+    }
 }
 
 /// A loop closure the relocalizer accepted, before the gate has confirmed it.
@@ -221,15 +323,16 @@ struct ClosureGate {
 impl ClosureGate {
     /// Gate a closure the relocalizer accepted, if any; admitted closures are added to the
     /// graph (their attempts in `attempts` marked accepted) and the graph re-optimised.
+    /// Returns whether any was admitted.
     fn submit(
         &mut self,
         closure: Option<Closure>,
         attempts: &mut [Attempt],
         graph: &mut TrajectoryGraph,
         config: &MissionConfig,
-    ) -> Result<(), MissionError> {
+    ) -> Result<bool, MissionError> {
         let Some(c) = closure else {
-            return Ok(());
+            return Ok(false);
         };
         let admitted = if config.gate_relocalizations {
             self.admit(c, graph, config)
@@ -237,7 +340,7 @@ impl ClosureGate {
             vec![c]
         };
         if admitted.is_empty() {
-            return Ok(());
+            return Ok(false);
         }
         let kernel = RobustKernel::Cauchy {
             c: config.robust_scale,
@@ -253,7 +356,7 @@ impl ClosureGate {
         if config.calibrate_odometry {
             graph.calibrate(config, config.calibration_rounds)?;
         }
-        Ok(())
+        Ok(true)
     }
 
     fn admit(

@@ -113,6 +113,11 @@ pub struct MissionConfig {
     pub lost_submap_pose_sigma_m: f64,
     /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
     pub loop_closures: bool,
+    /// Session 1 also closes its loops while it drives, and its planner works in the
+    /// corrected frame ([`crate::sim::session::SessionSim::set_planner_from_session`]): a
+    /// rock passed again after a loop is then remembered once, not twice 30–50 cm apart.
+    /// The map and the poses still come from the closures made after the drive.
+    pub online_loop_closures: bool,
     /// Loop closures: the earlier map ends this many seconds before the submap starts.
     pub loop_closure_gap_s: f64,
     /// Loop closures: the start map holds the frames before the rover moved this far (m).
@@ -204,6 +209,7 @@ impl Default for MissionConfig {
             submap_min_window_s: 10.0,
             lost_submap_pose_sigma_m: 0.1,
             loop_closures: true,
+            online_loop_closures: false,
             loop_closure_gap_s: 30.0,
             start_map_max_motion_m: 2.0,
             start_map_max_turn_deg: 90.0,

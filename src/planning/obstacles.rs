@@ -276,6 +276,21 @@ impl ObstacleMemory {
         true
     }
 
+    /// Move every obstacle to `moved(last_hit_frame, p)`: the planner's frame was corrected
+    /// (a loop closure), and each obstacle moves as the pose of the frame that last
+    /// detected it. Non-finite results leave an obstacle where it was.
+    pub fn reanchor(&mut self, mut moved: impl FnMut(u64, Point2<f64>) -> Point2<f64>) {
+        let mut index = GridIndex::new(1.0);
+        for (id, o) in self.obstacles.iter_mut().enumerate() {
+            let p = moved(o.last_hit_frame, o.p);
+            if p.x.is_finite() && p.y.is_finite() {
+                o.p = p;
+            }
+            index.insert(id as u32, &p3(&o.p));
+        }
+        self.index = index;
+    }
+
     /// Calls `visit` for every obstacle that counts (confirmed, or unconfirmed and not
     /// refuted) within `radius_m` of `p` (centre distance).
     pub fn for_each_near(&self, p: Point2<f64>, radius_m: f64, mut visit: impl FnMut(&Obstacle)) {
@@ -291,6 +306,29 @@ impl ObstacleMemory {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reanchoring_moves_each_obstacle_with_its_frame() {
+        let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+        m.start_frame();
+        m.add_rock(Point2::new(1.0, 0.0), 0.2);
+        m.start_frame();
+        m.add_rock(Point2::new(5.0, 0.0), 0.2);
+        // frame 2's pose was 0.3 m off in y; frame 1's was right
+        m.reanchor(|frame, p| {
+            if frame == 2 {
+                Point2::new(p.x, p.y + 0.3)
+            } else {
+                p
+            }
+        });
+        assert_eq!(m.obstacles()[0].p, Point2::new(1.0, 0.0));
+        assert_eq!(m.obstacles()[1].p, Point2::new(5.0, 0.3));
+        // the index follows: a detection at the new place merges
+        m.start_frame();
+        m.add_rock(Point2::new(5.0, 0.31), 0.2);
+        assert_eq!(m.obstacles().len(), 2);
+    }
 
     #[test]
     fn merges_and_filters() {

@@ -167,9 +167,25 @@ pub struct SessionSim<'a> {
     navigator: Navigator,
     obstacles: ObstacleMemory,
     seen: SeenGrid,
+    /// The frame the planner works in (navigator pose, obstacle memory, seen ground), from
+    /// the session (odometry) frame: identity until a loop closure corrects the drift.
+    planner_from_session: Isometry3<f64>,
+    /// `planner_from_session` at each frame of the log (what its detections were placed
+    /// with).
+    planner_history: Vec<Isometry3<f64>>,
     log: SessionLog,
     total_ticks: usize,
     wall: f64,
+}
+
+/// The planar part (x, y, yaw) of a pose.
+fn planar_part(pose: &Isometry3<f64>) -> Isometry3<f64> {
+    let (_, _, yaw) = pose.rotation.euler_angles();
+    let t = pose.translation.vector;
+    Isometry3::from_parts(
+        Translation3::new(t.x, t.y, 0.0),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+    )
 }
 
 /// Roll and pitch of the rover from the gravity it measures (rover frame).
@@ -213,6 +229,8 @@ impl<'a> SessionSim<'a> {
             navigator,
             obstacles: ObstacleMemory::new(&config.obstacles),
             seen: SeenGrid::new(0.25),
+            planner_from_session: Isometry3::identity(),
+            planner_history: Vec::new(),
             log: SessionLog {
                 seed,
                 config: config.clone(),
@@ -259,6 +277,38 @@ impl<'a> SessionSim<'a> {
             .set_nav_from_session(Isometry2::new(Vector2::new(t.x, t.y), yaw));
     }
 
+    /// Correct the planner's frame after a loop closure: `planner_from_session` holds, for
+    /// each frame of the log so far, the optimised pose composed with the inverse of its
+    /// odometry pose (only the planar part, x, y and yaw, is used).
+    ///
+    /// Every remembered obstacle moves as the frame that last detected it did, and from
+    /// now on the navigator, the obstacle memory and the seen-ground grid place the rover
+    /// with the latest correction instead of the bare odometry (the log keeps the
+    /// odometry). A rock passed again after a loop then lands on its first sighting instead
+    /// of 30–50 cm beside it, and the two copies do not fence the rover in.
+    pub fn reanchor_planner(&mut self, planner_from_session: &[Isometry3<f64>]) {
+        let planar: Vec<Isometry3<f64>> = planner_from_session.iter().map(planar_part).collect();
+        let Some(latest) = planar.last().copied() else {
+            return;
+        };
+        let (history, corrected) = (&self.planner_history, &planar);
+        self.obstacles.reanchor(|memory_frame, p| {
+            // memory frame f is log frame f − 1 (the memory counts from 1)
+            let f = memory_frame.saturating_sub(1) as usize;
+            match (history.get(f), corrected.get(f)) {
+                (Some(old), Some(new)) => {
+                    let q = new * old.inverse() * nalgebra::Point3::new(p.x, p.y, 0.0);
+                    Point2::new(q.x, q.y)
+                }
+                _ => p,
+            }
+        });
+        for (old, new) in self.planner_history.iter_mut().zip(&planar) {
+            *old = *new;
+        }
+        self.planner_from_session = latest;
+    }
+
     fn collision(&self, world_from_rover: &Isometry3<f64>) -> Option<Obstruction> {
         let (x, y) = (
             world_from_rover.translation.x,
@@ -291,7 +341,8 @@ impl<'a> SessionSim<'a> {
             &self.config.sensors,
             &mut self.rng,
         );
-        let est = tick.session_from_rover;
+        let est = self.planner_from_session * tick.session_from_rover;
+        self.planner_history.push(self.planner_from_session);
         self.obstacles.start_frame();
         for b in &obs.boulders {
             let p = est * b.p_rover;
@@ -356,7 +407,7 @@ impl<'a> SessionSim<'a> {
         };
         let k = self.log.ticks.len();
         let time_s = k as f64 * TICK_S;
-        let pose = Pose2::from_isometry3(&prev.session_from_rover);
+        let pose = Pose2::from_isometry3(&(self.planner_from_session * prev.session_from_rover));
         // the rover stands on its own footprint: that ground is clear
         self.seen
             .mark_disc(pose.x, pose.y, self.config.collision_radius_m);
@@ -454,6 +505,40 @@ mod tests {
         // error
         let w = log.world_from_session();
         assert!(w.translation.vector.norm() < 0.05 && w.rotation.angle() < 0.01);
+    }
+
+    #[test]
+    fn reanchoring_moves_remembered_rocks_and_the_planner() {
+        let moon = Moon::generate(&MoonConfig::default(), 3).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let config = SessionConfig {
+            duration_s: 20.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        let mut sim = SessionSim::new(&moon, &config, 1).unwrap();
+        while sim.step() {}
+        let before: Vec<Point2<f64>> = sim.obstacles.obstacles().iter().map(|o| o.p).collect();
+        assert!(!before.is_empty());
+        assert_eq!(sim.planner_history.len(), sim.log().frames.len());
+        // every frame's pose corrected by 1 m along x (and a tilt the planner ignores)
+        let shift = Isometry3::from_parts(
+            Translation3::new(1.0, 0.0, 0.3),
+            UnitQuaternion::from_euler_angles(0.01, 0.0, 0.0),
+        );
+        let corrections = vec![shift; sim.log().frames.len()];
+        sim.reanchor_planner(&corrections);
+        for (o, b) in sim.obstacles.obstacles().iter().zip(&before) {
+            assert!((o.p - b - Vector2::new(1.0, 0.0)).norm() < 1e-9);
+        }
+        let t = sim.planner_from_session.translation.vector;
+        assert!((t - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
+        assert!(sim.planner_from_session.rotation.angle() < 1e-12);
+        // a second correction composes with the first, not with the odometry
+        sim.reanchor_planner(&corrections);
+        for (o, b) in sim.obstacles.obstacles().iter().zip(&before) {
+            assert!((o.p - b - Vector2::new(1.0, 0.0)).norm() < 1e-9);
+        }
     }
 
     #[test]
