@@ -203,6 +203,21 @@ fn associate(
         .map(|(i, n, _)| (i, n))
 }
 
+/// [`add_lander_factors`], and the graph re-optimised when any was added: whether one was.
+pub fn add_lander_factors_optimized(
+    graph: &mut TrajectoryGraph,
+    log: &SessionLog,
+    frames: std::ops::Range<usize>,
+    in_prior: bool,
+    config: &MissionConfig,
+) -> Result<bool, GraphError> {
+    let added = add_lander_factors(graph, log, frames, in_prior, config)? > 0;
+    if added {
+        graph.optimize()?;
+    }
+    Ok(added)
+}
+
 /// Add a lander factor for every frame of `frames` whose points fit, placed with the
 /// graph's current estimate. `in_prior`: the factor ties the pose to the prior map's frame
 /// (taken as the world frame; session 2), otherwise it is a prior on the pose in the graph's

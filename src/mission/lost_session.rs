@@ -3,7 +3,7 @@
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
 use super::fix_gate::{agrees, Tolerance};
-use super::lander_factor::add_lander_factors;
+use super::lander_factor::{add_lander_factors, add_lander_factors_optimized};
 use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
@@ -93,12 +93,9 @@ pub fn localize_session(
         }
         if config.lander_factors && graph.odom_from_prior().is_some() {
             let frames = graph.frames;
-            let added = add_lander_factors(&mut graph, log, lander_done..frames, true, config)?;
+            changed |=
+                add_lander_factors_optimized(&mut graph, log, lander_done..frames, true, config)?;
             lander_done = frames;
-            if added > 0 {
-                graph.optimize()?;
-                changed = true;
-            }
         }
         if changed {
             if config.calibrate_odometry {
@@ -311,18 +308,14 @@ fn attempt(
     }))
 }
 
-/// The planner's `world_from_session`: the optimised latest pose composed with the inverse
-/// of its odometry estimate (so the correction of the drift so far is included).
+/// The planner's `world_from_session`: the latest frame's drift correction in the prior
+/// map's frame ([`TrajectoryGraph::prior_from_session`]), once that frame is known.
 fn world_from_session_estimate(
     log: &SessionLog,
     graph: &TrajectoryGraph,
 ) -> Option<Isometry3<f64>> {
-    let odom_from_prior = graph.odom_from_prior()?;
-    let k = graph.frames.checked_sub(1)?;
-    let odom_from_rover = graph.graph.pose(k as u64)?;
-    let tick = log.frames.get(k)?.tick;
-    let session_from_rover = log.ticks.get(tick)?.session_from_rover;
-    Some(odom_from_prior.inverse() * odom_from_rover * session_from_rover.inverse())
+    graph.odom_from_prior()?;
+    graph.prior_from_session(log, graph.frames.checked_sub(1)?)
 }
 
 /// Standard deviation of the yaw (rotation about z, tangent index 2) implied by an

@@ -3,7 +3,7 @@
 //! drift since the start is known).
 
 use super::fix_gate::{agrees, Tolerance};
-use super::lander_factor::add_lander_factors;
+use super::lander_factor::add_lander_factors_optimized;
 use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
 use super::trajectory::{
@@ -94,9 +94,7 @@ pub fn map_session(
         let mut first = 0;
         while first < graph.frames {
             let end = (first + LANDER_CHUNK_FRAMES).min(graph.frames);
-            if add_lander_factors(&mut graph, &log, first..end, false, config)? > 0 {
-                graph.optimize()?;
-            }
+            add_lander_factors_optimized(&mut graph, &log, first..end, false, config)?;
             first = end;
         }
     }
@@ -274,10 +272,7 @@ impl OnlineClosures {
             let frames = self.graph.frames;
             let range = self.lander_done..frames;
             self.lander_done = frames;
-            if add_lander_factors(&mut self.graph, log, range, false, config)? > 0 {
-                self.graph.optimize()?;
-                changed = true;
-            }
+            changed = add_lander_factors_optimized(&mut self.graph, log, range, false, config)?;
         }
         changed |= self
             .closer
@@ -286,10 +281,7 @@ impl OnlineClosures {
             return Ok(None);
         }
         let corrections = (0..self.graph.frames)
-            .map_while(|k| {
-                let tick = log.ticks.get(log.frames.get(k)?.tick)?;
-                Some(self.graph.pose_or_identity(k) * tick.session_from_rover.inverse())
-            })
+            .map_while(|k| self.graph.prior_from_session(log, k))
             .collect();
         Ok(Some(corrections))
     }

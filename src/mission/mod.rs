@@ -114,7 +114,7 @@ pub struct MissionConfig {
     /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
     pub loop_closures: bool,
     /// Session 1 also closes its loops while it drives, and its planner works in the
-    /// corrected frame ([`crate::sim::session::SessionSim::set_planner_from_session`]): a
+    /// corrected frame ([`crate::sim::session::SessionSim::reanchor_planner`]): a
     /// rock passed again after a loop is then remembered once, not twice 30–50 cm apart.
     /// The map and the poses still come from the closures made after the drive.
     pub online_loop_closures: bool,

@@ -382,6 +382,18 @@ impl TrajectoryGraph {
             .flatten()
     }
 
+    /// Frame `k`'s drift correction `prior_from_session`: its optimised pose, in the prior
+    /// map's frame when it is known (the odometry frame otherwise), composed with the
+    /// inverse of its odometry pose in `log`. `None` for a frame the graph or `log` lacks.
+    pub fn prior_from_session(&self, log: &SessionLog, k: usize) -> Option<Isometry3<f64>> {
+        let prior_from_odom = self
+            .odom_from_prior()
+            .map_or_else(Isometry3::identity, |f| f.inverse());
+        let odom_from_rover = self.graph.pose(k as u64)?;
+        let session_from_rover = log.ticks.get(log.frames.get(k)?.tick)?.session_from_rover;
+        Some(prior_from_odom * odom_from_rover * session_from_rover.inverse())
+    }
+
     /// Optimised poses of all frames, in the prior map's frame when it is known (the odometry
     /// frame otherwise).
     pub fn poses_in_prior(&self) -> Vec<Isometry3<f64>> {

@@ -41,7 +41,8 @@ pub struct ObstacleConfig {
     pub refute_fov_margin_rad: f64,
     /// A confirmed rock is dropped after this many views in a row (the same views as for
     /// `refute_after_views`) without being detected; 0 (the default): confirmed rocks are
-    /// kept for good. The memory lives in the drifting odometry frame: a rock passed again
+    /// kept for good. The memory lives in the drifting odometry frame (unless the mission's
+    /// `online_loop_closures` re-anchors it, [`ObstacleMemory::reanchor`]): a rock passed again
     /// minutes later can land more than `merge_radius_m` from its first copy, and the stale
     /// copies, never seen again where they are, fence the rover in (seed 14 of the mission
     /// drives 112 m in 600 s, 166 m with 3). On the mission's 20 seeds it raised the
