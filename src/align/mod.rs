@@ -3,7 +3,7 @@
 //! - [`arun`]: Arun / Umeyama SVD solution for a full rigid motion (6 degrees of freedom).
 //! - [`yaw_only`]: the closed form for a rotation about gravity (z) plus a translation
 //!   (4 degrees of freedom), for gravity-aligned maps.
-//! - [`refine`]: iteratively re-weighted least squares with a Cauchy kernel over
+//! - [`mod@refine`]: iteratively re-weighted least squares with a Cauchy kernel over
 //!   re-associated nearest neighbours, which turns a clique's rough answer into a
 //!   centimetre one.
 //! - [`information`]: the 6 × 6 information matrix of the estimate for the pose graph.

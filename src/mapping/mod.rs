@@ -6,7 +6,7 @@
 //! - [`rock_grid`] ([`rock_footprint`]): fused landmarks → the cells their footprints cover;
 //! - [`RockEvidence`] ([`rock_evidence`]): raw detections with the rover's views → cells
 //!   detected far more often than their exposure explains (the real-data rock map);
-//! - [`score`] ([`mod@score`]): the LAC points of a grid against the ground truth;
+//! - [`score()`] ([`mod@score`]): the LAC points of a grid against the ground truth;
 //! - [`pictures`]: PNGs of the height error, the rock map and trajectories, drawn with
 //!   the small rasteriser in [`raster`].
 

@@ -15,7 +15,7 @@
 //! - [`maps`]: height and rock maps, LAC score;
 //! - [`report`]: the JSON report and the pictures;
 //! - [`trace`]: the mission frame by frame for playback, and with the cargo feature
-//!   `rerun`, [`recording`]: a `.rrd` recording of it for the Rerun viewer;
+//!   `rerun`, `recording`: a `.rrd` recording of it for the Rerun viewer;
 //! - [`progress`]: where a running mission is, for a progress display.
 //!
 //! ```no_run

@@ -1,7 +1,7 @@
 //! What happened in a mission, frame by frame, kept for playback: true, estimated and
 //! odometry-only rover poses, the boulders each frame saw (placed with the estimated
 //! pose), the moon's rocks and session 1's map. The Rerun recording
-//! ([`super::recording`], cargo feature `rerun`) is written from it.
+//! (`mission::recording`, cargo feature `rerun`) is written from it.
 
 use crate::sim::moon::Moon;
 use crate::sim::session::SessionLog;

@@ -41,7 +41,7 @@ pub enum Initialization {
 
 /// Graduated non-convexity schedule for factors with [`RobustKernel::Gnc`].
 ///
-/// [`RobustKernel::Gnc`]: super::RobustKernel::Gnc
+/// [`RobustKernel::Gnc`]: crate::graph::robust::RobustKernel::Gnc
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct GncConfig {
