@@ -19,6 +19,15 @@ fn rock_map_from_all_17_traverses() {
     // estimated from the traverses alone: 0.82 cm
     let bias_m = evidence.config().view_bias_m.unwrap();
     assert!((0.005..0.012).contains(&bias_m), "viewpoint bias {bias_m}");
+    // the lander's ground height from the rovers' own heights near it: 1.40 m
+    let ground_z = evidence.config().lander.ground_z_m.unwrap();
+    assert!((1.3..1.5).contains(&ground_z), "lander ground {ground_z}");
+    // its body and charging antenna: 640 detections 0.15 m or more above that ground
+    assert!(
+        (300..1000).contains(&evidence.lander_structure),
+        "lander structure {}",
+        evidence.lander_structure
+    );
     let grid = evidence.rock_grid();
     let s = score(&grid, &truth, None).unwrap();
     eprintln!(
@@ -30,14 +39,16 @@ fn rock_map_from_all_17_traverses() {
         s.false_positives,
         s.false_negatives
     );
-    // measured 0.642 with the viewpoint bias estimated from the traverses, 0.632 without
-    // (the raw count of detections per cell reaches 0.577 at its best threshold, 0.325
-    // when marking every cell with a detection)
-    assert!(s.rock_f1 >= 0.635, "F1 {}", s.rock_f1);
-    assert!(s.rock_precision >= 0.75, "precision {}", s.rock_precision);
+    // measured 0.6458 with the lander's structure dropped (8 fewer false positives),
+    // 0.642 without it, 0.632 without the viewpoint bias either (the raw count of
+    // detections per cell reaches 0.577 at its best threshold, 0.325 when marking every
+    // cell with a detection)
+    assert!(s.rock_f1 >= 0.64, "F1 {}", s.rock_f1);
+    assert!(s.rock_precision >= 0.78, "precision {}", s.rock_precision);
     // the thresholds hold up on cells they were not tuned on
     let rates: Vec<f64> = (1..=30).map(|k| 0.01 * k as f64).collect();
     let cv = cross_validate(&evidence, &truth, &[1, 2, 3], &rates, 4);
     eprintln!("4-sector cross-validated F1 {:.4}", cv.held_out.f1);
-    assert!(cv.held_out.f1 >= 0.63, "held-out F1 {}", cv.held_out.f1);
+    // measured 0.644
+    assert!(cv.held_out.f1 >= 0.635, "held-out F1 {}", cv.held_out.f1);
 }

@@ -2,6 +2,7 @@
 
 use anyhow::Result;
 use clap::Subcommand;
+use segloc::mapping::RockEvidenceConfig;
 use segloc::mission::MissionConfig;
 use segloc::relocalize::RelocalizeConfig;
 
@@ -13,8 +14,12 @@ pub enum ConfigCommand {
         /// Print the whole mission configuration (`segloc mission|demo --mission-config`)
         /// instead of the relocalizer's; its `relocalize` table is the configuration in
         /// effect.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "evidence")]
         mission: bool,
+        /// Print the defaults of the real-data rock map (`segloc grid rocks
+        /// --evidence-config`) instead.
+        #[arg(long)]
+        evidence: bool,
     },
     /// Load `--config FILE` and report whether it is valid.
     Check,
@@ -23,8 +28,14 @@ pub enum ConfigCommand {
 /// Run a config command.
 pub fn run(cmd: &ConfigCommand, config: &RelocalizeConfig) -> Result<i32> {
     match cmd {
-        ConfigCommand::Print { mission: false } => print!("{}", toml::to_string_pretty(config)?),
-        ConfigCommand::Print { mission: true } => {
+        ConfigCommand::Print { evidence: true, .. } => print!(
+            "{}",
+            toml::to_string_pretty(&RockEvidenceConfig::default())?
+        ),
+        ConfigCommand::Print { mission: false, .. } => {
+            print!("{}", toml::to_string_pretty(config)?)
+        }
+        ConfigCommand::Print { mission: true, .. } => {
             let mission = MissionConfig {
                 relocalize: config.clone(),
                 ..MissionConfig::default()

@@ -110,17 +110,20 @@ pub fn run(cmd: &GridCommand) -> Result<i32> {
                 print_json(&json!({
                     "output": output, "traverses": loaded.len(), "detections": detections,
                     "views": evidence.views, "rock_cells": grid.rock_count(),
-                    "view_bias_m": bias_m, "view_bias_source": bias_source, "config": used,
+                    "view_bias_m": bias_m, "view_bias_source": bias_source,
+                    "lander_ground_z_m": used.lander.ground_z_m,
+                    "lander_structure_detections": evidence.lander_structure, "config": used,
                 }))?;
             } else {
                 println!(
-                    "{} rock cells from {} detections in {} traverses ({} views; viewpoint bias {:.2} cm, {}) -> {}",
+                    "{} rock cells from {} detections in {} traverses ({} views; viewpoint bias {:.2} cm, {}; {}) -> {}",
                     grid.rock_count(),
                     detections,
                     loaded.len(),
                     evidence.views,
                     100.0 * bias_m,
                     bias_source,
+                    lander_note(used, evidence.lander_structure),
                     output.display()
                 );
             }
@@ -244,4 +247,17 @@ fn load_evidence_config(path: Option<&Path>) -> Result<RockEvidenceConfig> {
         .validate()
         .map_err(|e| anyhow::anyhow!("evidence config {}: {e}", path.display()))?;
     Ok(config)
+}
+
+/// What the lander-structure test did, for the one-line summary.
+fn lander_note(used: &RockEvidenceConfig, dropped: usize) -> String {
+    match used.lander.ground_z_m {
+        Some(z) if used.lander.half_extent_m > 0.0 => {
+            format!("{dropped} detections on the lander's structure dropped (ground z {z:.2} m)")
+        }
+        _ if used.lander.half_extent_m > 0.0 => {
+            "lander test off: no rover frame near the lander".to_string()
+        }
+        _ => "lander test off".to_string(),
+    }
 }

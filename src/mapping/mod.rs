@@ -5,12 +5,14 @@
 //!   natural-neighbour interpolation (nearest observed cell outside the convex hull);
 //! - [`rock_grid`] ([`rock_footprint`]): fused landmarks → the cells their footprints cover;
 //! - [`RockEvidence`] ([`rock_evidence`]): raw detections with the rover's views → cells
-//!   detected far more often than their exposure explains (the real-data rock map);
+//!   detected far more often than their exposure explains (the real-data rock map), less
+//!   the detections on the lander's own structure ([`lander_structure`]);
 //! - [`score()`] ([`mod@score`]): the LAC points of a grid against the ground truth;
 //! - [`pictures`]: PNGs of the height error, the rock map and trajectories, drawn with
 //!   the small rasteriser in [`raster`].
 
 pub mod height_map;
+pub mod lander_structure;
 pub mod pictures;
 pub mod raster;
 pub mod rock_evidence;
@@ -19,6 +21,7 @@ pub mod score;
 pub mod tune;
 
 pub use height_map::HeightMapBuilder;
+pub use lander_structure::LanderStructureConfig;
 pub use rock_evidence::{traverse_views, RockEvidence, RockEvidenceConfig};
 pub use rock_footprint::{rock_grid, RockGridConfig};
 pub use score::{score, LacScore, ScoreError};

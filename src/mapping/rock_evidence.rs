@@ -24,6 +24,9 @@
 //! to the next cell back, and the false positives drop from 124 to 114 while the true
 //! positives rise from 449 to 455 (F1 0.632 → 0.642 against the LAC ground truth).
 //!
+//! Detections on the lander's own body and antenna do not vote
+//! ([`lander_structure`](super::lander_structure)): 8 fewer false positives, F1 0.646.
+//!
 //! The LunarLoc traverses give rover positions but no orientation: the heading of a frame
 //! is the direction of travel over ± `heading_window_frames`, replaced by the circular
 //! mean bearing of the frame's detections when the rover barely moved or a detection lies
@@ -32,6 +35,7 @@
 //! is the median gap between frames with detections, and frames at that cadence without
 //! detections count as views too.
 
+use super::lander_structure::{lander_ground_from, LanderStructureConfig};
 use crate::landmarks::{view_bias, FusionConfig};
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
@@ -67,6 +71,9 @@ pub struct RockEvidenceConfig {
     /// ([`view_bias::estimate_view_bias`], the median over boulders seen from several
     /// sides) and a bare [`RockEvidence::new`] uses 0.
     pub view_bias_m: Option<f64>,
+    /// Detections on the lander's own structure, which do not vote
+    /// ([`lander_structure`](super::lander_structure)).
+    pub lander: LanderStructureConfig,
 }
 
 impl Default for RockEvidenceConfig {
@@ -82,6 +89,7 @@ impl Default for RockEvidenceConfig {
             heading_window_frames: 20,
             min_heading_motion_m: 0.1,
             view_bias_m: None,
+            lander: LanderStructureConfig::default(),
         }
     }
 }
@@ -123,7 +131,7 @@ impl RockEvidenceConfig {
                 ));
             }
         }
-        Ok(())
+        self.lander.validate()
     }
 
     /// This configuration with the viewpoint bias set: the configured one, or else the
@@ -138,6 +146,17 @@ impl RockEvidenceConfig {
             ..self.clone()
         }
     }
+
+    /// This configuration with the lander's ground height set: the configured one, or
+    /// else the estimate from the rover heights of `traverses` near the lander (left unset,
+    /// and the lander test off, when none came near).
+    pub fn with_lander_ground_from(&self, traverses: &[Traverse]) -> Self {
+        let mut out = self.clone();
+        if out.lander.ground_z_m.is_none() && out.lander.half_extent_m > 0.0 {
+            out.lander.ground_z_m = lander_ground_from(traverses, &out.lander).map(|(z, _)| z);
+        }
+        out
+    }
 }
 
 /// Hits and exposure per cell of a grid.
@@ -151,6 +170,8 @@ pub struct RockEvidence {
     pub exposure: Vec<f64>,
     /// Views (detection frames) accumulated.
     pub views: usize,
+    /// Detections dropped as the lander's own structure.
+    pub lander_structure: usize,
     config: RockEvidenceConfig,
 }
 
@@ -163,6 +184,7 @@ impl RockEvidence {
             hits: vec![0.0; n],
             exposure: vec![0.0; n],
             views: 0,
+            lander_structure: 0,
             config: config.clone(),
         }
     }
@@ -191,6 +213,10 @@ impl RockEvidence {
             let sight = d.xy() - rover_world.xy();
             let range = sight.norm();
             if range < r_min || range > r_max {
+                continue;
+            }
+            if c.lander.is_structure(d) {
+                self.lander_structure += 1;
                 continue;
             }
             let centre = d.xy() + sight * (bias / range);
@@ -244,15 +270,19 @@ impl RockEvidence {
         }
     }
 
-    /// Evidence from many traverses, one thread per traverse, with the viewpoint bias
-    /// estimated from them unless `config` sets it ([`RockEvidenceConfig::with_view_bias_from`];
-    /// [`RockEvidence::config`] then holds the value used).
+    /// Evidence from many traverses, one thread per traverse, with the viewpoint bias and
+    /// the lander's ground height estimated from them unless `config` sets them
+    /// ([`RockEvidenceConfig::with_view_bias_from`],
+    /// [`RockEvidenceConfig::with_lander_ground_from`]; [`RockEvidence::config`] then
+    /// holds the values used).
     pub fn from_traverses(
         grid: &LacGrid,
         traverses: &[Traverse],
         config: &RockEvidenceConfig,
     ) -> Self {
-        let config = &config.with_view_bias_from(traverses);
+        let config = &config
+            .with_view_bias_from(traverses)
+            .with_lander_ground_from(traverses);
         traverses
             .par_iter()
             .map(|t| {
@@ -278,6 +308,7 @@ impl RockEvidence {
             *a += b;
         }
         self.views += other.views;
+        self.lander_structure += other.lander_structure;
     }
 
     /// Detections per unit of exposure of cell `k` (infinite with hits but no exposure).
