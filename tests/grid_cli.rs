@@ -132,59 +132,45 @@ fn rocks_from_a_small_traverse() {
     assert!(grid.rock[grid.index(i, j)]);
     let text = std::fs::read_to_string(&g).unwrap();
     assert!(text.starts_with("i,j,x,y,height,rock\n0,0,-13.425,-13.425,-inf,0\n"));
-    // the printed defaults load back
+    // the printed defaults load back; bad ones exit 2 naming the file and the field,
+    // the grid untouched
+    let cfg = dir.path().join("evidence.toml");
+    let rocks_with = |config: &[u8]| {
+        std::fs::write(&cfg, config).unwrap();
+        segloc()
+            .args(["grid", "rocks", "--traverses"])
+            .arg(&t)
+            .arg("-o")
+            .arg(&g)
+            .arg("--evidence-config")
+            .arg(&cfg)
+            .output()
+            .unwrap()
+    };
     let printed = segloc()
         .args(["config", "print", "--evidence"])
         .output()
         .unwrap();
     assert_success(&printed);
-    let cfg = dir.path().join("evidence.toml");
-    std::fs::write(&cfg, &printed.stdout).unwrap();
     assert!(String::from_utf8_lossy(&printed.stdout).contains("[lander]"));
-    let out = segloc()
-        .args(["grid", "rocks", "--json", "--traverses"])
-        .arg(&t)
-        .arg("-o")
-        .arg(&g)
-        .arg("--evidence-config")
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    assert_success(&out);
+    assert_success(&rocks_with(&printed.stdout));
     assert_eq!(std::fs::read_to_string(&g).unwrap(), text);
-    // a bad evidence config: exit 2 naming the file and the field, the grid untouched
-    std::fs::write(&cfg, "view_bias_m = 3.0\n").unwrap();
-    let out = segloc()
-        .args(["grid", "rocks", "--traverses"])
-        .arg(&t)
-        .arg("-o")
-        .arg(&g)
-        .arg("--evidence-config")
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("evidence.toml") && err.contains("view_bias_m"),
-        "{err}"
-    );
-    assert_eq!(std::fs::read_to_string(&g).unwrap(), text);
-    // … and a bad field of the lander-structure table
-    std::fs::write(&cfg, "[lander]\nmax_rock_height_m = -0.1\n").unwrap();
-    let out = segloc()
-        .args(["grid", "rocks", "--traverses"])
-        .arg(&t)
-        .arg("-o")
-        .arg(&g)
-        .arg("--evidence-config")
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("lander.max_rock_height_m"), "{err}");
-    assert_eq!(std::fs::read_to_string(&g).unwrap(), text);
+    for (config, field) in [
+        ("view_bias_m = 3.0\n", "view_bias_m"),
+        (
+            "[lander]\nmax_rock_height_m = -0.1\n",
+            "lander.max_rock_height_m",
+        ),
+    ] {
+        let out = rocks_with(config.as_bytes());
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("evidence.toml") && err.contains(field),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&g).unwrap(), text);
+    }
     // a malformed traverse: exit 2 naming the file and line
     std::fs::write(
         &t,
