@@ -251,11 +251,12 @@ fn load_evidence_config(path: Option<&Path>) -> Result<RockEvidenceConfig> {
 
 /// What the lander-structure test did, for the one-line summary.
 fn lander_note(used: &RockEvidenceConfig, dropped: usize) -> String {
-    match used.lander.ground_z_m {
-        Some(z) if used.lander.half_extent_m > 0.0 => {
+    let lander = &used.lander;
+    match lander.ground_z_m {
+        Some(z) if lander.is_active() => {
             format!("{dropped} detections on the lander's structure dropped (ground z {z:.2} m)")
         }
-        _ if used.lander.half_extent_m > 0.0 => {
+        _ if lander.half_extent_m > 0.0 => {
             "lander test off: no rover frame near the lander".to_string()
         }
         _ => "lander test off".to_string(),
