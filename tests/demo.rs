@@ -62,16 +62,25 @@ fn demo_runs_the_mission_and_writes_report_pictures_and_recording() {
 fn demo_refuses_a_bad_mission_config_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("bad.toml");
-    std::fs::write(&config, "seconds_per_session = \"long\"\n").unwrap();
-    let output = segloc()
-        .args(["demo", "--mission-config"])
-        .arg(&config)
-        .arg("--out")
-        .arg(dir.path().join("demo"))
-        .output()
-        .unwrap();
-    assert_eq!(output.status.code(), Some(2), "{output:?}");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(stderr.contains("bad.toml"), "{stderr}");
-    assert!(!dir.path().join("demo").exists());
+    // malformed, and well-formed but out of range (a session's field): both name the file
+    for (text, field) in [
+        ("seconds_per_session = \"long\"\n", "seconds_per_session"),
+        (
+            "[session]\nseen_ground_toward_camera_m = -1.0\n",
+            "seen_ground_toward_camera_m",
+        ),
+    ] {
+        std::fs::write(&config, text).unwrap();
+        let output = segloc()
+            .args(["demo", "--mission-config"])
+            .arg(&config)
+            .arg("--out")
+            .arg(dir.path().join("demo"))
+            .output()
+            .unwrap();
+        assert_eq!(output.status.code(), Some(2), "{output:?}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains("bad.toml") && stderr.contains(field), "{stderr}");
+        assert!(!dir.path().join("demo").exists());
+    }
 }

@@ -80,7 +80,12 @@ fn mission_config(
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read {}", path.display()))?;
-            toml::from_str(&text).with_context(|| format!("mission config {}", path.display()))?
+            let config: MissionConfig = toml::from_str(&text)
+                .with_context(|| format!("mission config {}", path.display()))?;
+            config
+                .validate()
+                .with_context(|| format!("mission config {}", path.display()))?;
+            config
         }
         None if args.coverage => MissionConfig::lac_coverage(),
         None => MissionConfig::default(),

@@ -379,6 +379,11 @@ impl MissionConfig {
         if all.clone().any(|v| !v.is_finite()) {
             return bad("starts and guess error must be finite");
         }
+        for (name, session) in [("session", &self.session), ("session_2", self.session_2())] {
+            if let Err(e) = session.validate() {
+                return bad(&format!("{name}: {e}"));
+            }
+        }
         Ok(())
     }
 }

@@ -109,9 +109,30 @@ impl SeenGrid {
 
     /// Mark every cell within `radius_m` of (x, y) (the ground under the rover).
     pub fn mark_disc(&mut self, x: f64, y: f64, radius_m: f64) {
+        self.mark_disc_seen_from(x, y, radius_m, None);
+    }
+
+    /// Mark the cells within `radius_m` of a ground point at (x, y) measured from
+    /// `from = (camera x, camera y, toward_m)`: cells nearer the camera than the point by
+    /// more than `toward_m` along the line of sight stay unmarked (ground just in front of a
+    /// measured point may lie hidden in a dip or behind a crest: its own points would show
+    /// it). `None`: the whole disc.
+    pub fn mark_disc_seen_from(
+        &mut self,
+        x: f64,
+        y: f64,
+        radius_m: f64,
+        from: Option<(f64, f64, f64)>,
+    ) {
         if !x.is_finite() || !y.is_finite() || !(0.0..=100.0).contains(&radius_m) {
             return;
         }
+        // unit line of sight (camera → point) and how far back along it the disc may reach
+        let sight = from.and_then(|(cx, cy, toward_m)| {
+            let (dx, dy) = (x - cx, y - cy);
+            let d = dx.hypot(dy);
+            (d > 1e-9 && toward_m.is_finite()).then(|| (dx / d, dy / d, toward_m))
+        });
         let (lo, hi) = (
             self.key(x - radius_m, y - radius_m),
             self.key(x + radius_m, y + radius_m),
@@ -120,7 +141,8 @@ impl SeenGrid {
             for j in lo.1..=hi.1 {
                 let cx = (i as f64 + 0.5) * self.cell_m - x;
                 let cy = (j as f64 + 0.5) * self.cell_m - y;
-                if cx.hypot(cy) <= radius_m {
+                let behind = sight.is_some_and(|(ux, uy, toward_m)| cx * ux + cy * uy < -toward_m);
+                if cx.hypot(cy) <= radius_m && !behind {
                     self.insert((i, j));
                 }
             }
@@ -142,6 +164,20 @@ mod tests {
         assert!(!g.is_seen(6.0, 0.0));
         g.mark_disc(0.0, 0.0, 0.5);
         assert!(g.is_seen(0.0, 0.3));
+    }
+
+    #[test]
+    fn a_point_seen_from_afar_leaves_the_ground_before_it_unmarked() {
+        // a point 3 m ahead of a camera at the origin: the disc reaches 0.35 m beyond it and
+        // to the sides, but only 0.05 m back towards the camera (a dip there stays unseen)
+        let mut g = SeenGrid::new(0.1);
+        g.mark_disc_seen_from(3.0, 0.0, 0.35, Some((0.0, 0.0, 0.05)));
+        assert!(g.is_seen(3.3, 0.0) && g.is_seen(3.05, 0.3) && g.is_seen(3.0, -0.3));
+        assert!(!g.is_seen(2.75, 0.0) && !g.is_seen(2.8, 0.1));
+        let mut full = SeenGrid::new(0.1);
+        full.mark_disc_seen_from(3.0, 0.0, 0.35, None);
+        assert!(full.is_seen(2.75, 0.0));
+        assert!(full.len() > g.len());
     }
 
     #[test]

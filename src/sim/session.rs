@@ -42,7 +42,9 @@ use crate::sim::moon::Moon;
 use crate::sim::rover::{Command, RoverConfig, RoverState};
 use crate::sim::sensors::{cameras, observe, observe_far, SensorConfig};
 use crate::sim::visual_odometry::{gravity_in_rover, VisualOdometry, VoConfig};
-use nalgebra::{Isometry2, Isometry3, Point2, Translation3, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{
+    Isometry2, Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector2, Vector3,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -98,6 +100,10 @@ pub struct SessionConfig {
     /// behind a crest or in a dip inside their view cone. 0: the whole view cone (out to the
     /// ground points' range) counts as seen.
     pub seen_ground_point_radius_m: f64,
+    /// … but towards the camera only this far along the line of sight, metres (ground just
+    /// in front of a measured point may lie hidden in a dip: its own points would show it).
+    /// Unset: the whole disc.
+    pub seen_ground_toward_camera_m: Option<f64>,
     /// Waypoint pattern.
     pub waypoints: WaypointConfig,
 }
@@ -117,6 +123,7 @@ impl Default for SessionConfig {
             navigator: NavigatorConfig::default(),
             obstacles: ObstacleConfig::default(),
             seen_ground_point_radius_m: 0.35,
+            seen_ground_toward_camera_m: None,
             waypoints: WaypointConfig::default(),
         }
     }
@@ -144,6 +151,12 @@ impl SessionConfig {
         }
         if !self.collision_radius_m.is_finite() || !self.collision_min_rock_radius_m.is_finite() {
             return bad("collision radii must be finite");
+        }
+        if self
+            .seen_ground_toward_camera_m
+            .is_some_and(|t| !(t.is_finite() && t >= 0.0))
+        {
+            return bad("seen_ground_toward_camera_m must be a non-negative number");
         }
         if !self.navigator.glance.is_valid() {
             return bad(
@@ -366,9 +379,16 @@ impl<'a> SessionSim<'a> {
             }
         }
         if seen_radius_m > 0.0 {
+            let toward = self.config.seen_ground_toward_camera_m;
             for g in &obs.ground {
                 let p = est * g.p_rover;
-                self.seen.mark_disc(p.x, p.y, seen_radius_m);
+                let from = toward.map(|t| {
+                    let rig = cameras();
+                    let camera = rig.iter().find(|c| c.id == g.camera).unwrap_or(&rig[0]);
+                    let c = est * Point3::from(camera.rover_from_camera.translation.vector);
+                    (c.x, c.y, t)
+                });
+                self.seen.mark_disc_seen_from(p.x, p.y, seen_radius_m, from);
             }
         }
         for q in &obs.lander_points_rover {
