@@ -80,7 +80,10 @@ fn demo_refuses_a_bad_mission_config_naming_the_file() {
             .unwrap();
         assert_eq!(output.status.code(), Some(2), "{output:?}");
         let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(stderr.contains("bad.toml") && stderr.contains(field), "{stderr}");
+        assert!(
+            stderr.contains("bad.toml") && stderr.contains(field),
+            "{stderr}"
+        );
         assert!(!dir.path().join("demo").exists());
     }
 }
