@@ -16,6 +16,7 @@
 //! driven within [`LanderStructureConfig::ground_margin_m`] of the footprint — no ground
 //! truth enters it.
 
+use super::check_numbers;
 use segloc_maps::Traverse;
 use serde::{Deserialize, Serialize};
 
@@ -56,22 +57,18 @@ impl Default for LanderStructureConfig {
 impl LanderStructureConfig {
     /// Check every field: a message naming the first bad one.
     pub fn validate(&self) -> Result<(), String> {
-        let non_negative = [
-            ("lander.half_extent_m", self.half_extent_m),
-            ("lander.rover_height_m", self.rover_height_m),
-            ("lander.ground_margin_m", self.ground_margin_m),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{name} must be a non-negative number, got {v}"));
-            }
-        }
-        if !(self.max_rock_height_m.is_finite() && self.max_rock_height_m > 0.0) {
-            return Err(format!(
-                "lander.max_rock_height_m must be a positive number, got {}",
-                self.max_rock_height_m
-            ));
-        }
+        check_numbers(
+            &[
+                ("lander.half_extent_m", self.half_extent_m),
+                ("lander.rover_height_m", self.rover_height_m),
+                ("lander.ground_margin_m", self.ground_margin_m),
+            ],
+            false,
+        )?;
+        check_numbers(
+            &[("lander.max_rock_height_m", self.max_rock_height_m)],
+            true,
+        )?;
         if let Some(z) = self.ground_z_m {
             if !z.is_finite() {
                 return Err(format!("lander.ground_z_m must be a number, got {z}"));

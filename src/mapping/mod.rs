@@ -26,3 +26,16 @@ pub use rock_evidence::{traverse_views, RockEvidence, RockEvidenceConfig};
 pub use rock_footprint::{rock_grid, RockGridConfig};
 pub use score::{score, LacScore, ScoreError};
 pub use tune::{cross_validate, sensitivity, CrossValidation, ThresholdResult};
+
+/// Every named value is a finite number above 0 (`positive`) or at least 0: the first one
+/// that is not, as a message naming it (for the configs' `validate`).
+pub(crate) fn check_numbers(fields: &[(&str, f64)], positive: bool) -> Result<(), String> {
+    for &(name, v) in fields {
+        let ok = v.is_finite() && if positive { v > 0.0 } else { v >= 0.0 };
+        if !ok {
+            let kind = if positive { "positive" } else { "non-negative" };
+            return Err(format!("{name} must be a {kind} number, got {v}"));
+        }
+    }
+    Ok(())
+}

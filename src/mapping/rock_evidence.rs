@@ -35,6 +35,7 @@
 //! is the median gap between frames with detections, and frames at that cadence without
 //! detections count as views too.
 
+use super::check_numbers;
 use super::lander_structure::{lander_ground_from, LanderStructureConfig};
 use crate::landmarks::{view_bias, FusionConfig};
 use nalgebra::{Point2, Point3};
@@ -97,27 +98,23 @@ impl Default for RockEvidenceConfig {
 impl RockEvidenceConfig {
     /// Check every field: a message naming the first bad one.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = [
-            ("max_range_m", self.max_range_m),
-            ("half_fov_deg", self.half_fov_deg),
-            ("reference_range_m", self.reference_range_m),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} must be a positive number, got {v}"));
-            }
-        }
-        let non_negative = [
-            ("min_range_m", self.min_range_m),
-            ("range_exponent", self.range_exponent),
-            ("min_rate", self.min_rate),
-            ("min_heading_motion_m", self.min_heading_motion_m),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{name} must be a non-negative number, got {v}"));
-            }
-        }
+        check_numbers(
+            &[
+                ("max_range_m", self.max_range_m),
+                ("half_fov_deg", self.half_fov_deg),
+                ("reference_range_m", self.reference_range_m),
+            ],
+            true,
+        )?;
+        check_numbers(
+            &[
+                ("min_range_m", self.min_range_m),
+                ("range_exponent", self.range_exponent),
+                ("min_rate", self.min_rate),
+                ("min_heading_motion_m", self.min_heading_motion_m),
+            ],
+            false,
+        )?;
         if self.min_range_m >= self.max_range_m {
             return Err(format!(
                 "min_range_m ({}) must be below max_range_m ({})",

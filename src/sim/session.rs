@@ -310,7 +310,7 @@ impl<'a> SessionSim<'a> {
             let f = memory_frame.saturating_sub(1) as usize;
             match (history.get(f), corrected.get(f)) {
                 (Some(old), Some(new)) => {
-                    let q = new * old.inverse() * nalgebra::Point3::new(p.x, p.y, 0.0);
+                    let q = new * old.inverse() * Point3::new(p.x, p.y, 0.0);
                     Point2::new(q.x, q.y)
                 }
                 _ => p,
@@ -380,13 +380,18 @@ impl<'a> SessionSim<'a> {
         }
         if seen_radius_m > 0.0 {
             let toward = self.config.seen_ground_toward_camera_m;
+            // each camera's position once per frame, not once per ground point
+            let camera_at = cameras().map(|c| {
+                let p = est * Point3::from(c.rover_from_camera.translation.vector);
+                (c.id, p.x, p.y)
+            });
             for g in &obs.ground {
                 let p = est * g.p_rover;
-                let from = toward.map(|t| {
-                    let rig = cameras();
-                    let camera = rig.iter().find(|c| c.id == g.camera).unwrap_or(&rig[0]);
-                    let c = est * Point3::from(camera.rover_from_camera.translation.vector);
-                    (c.x, c.y, t)
+                let from = toward.and_then(|t| {
+                    camera_at
+                        .iter()
+                        .find(|(id, _, _)| *id == g.camera)
+                        .map(|&(_, x, y)| (x, y, t))
                 });
                 self.seen.mark_disc_seen_from(p.x, p.y, seen_radius_m, from);
             }
