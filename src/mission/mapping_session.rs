@@ -449,6 +449,7 @@ fn close_loop(
         }
     };
     record.inliers = reloc.inliers.len();
+    record.yaw_sigma_deg = Some(super::lost_session::yaw_sigma_deg(&reloc.information));
     let Some(old_from_recent) = reloc.prior_from_query else {
         record.refusal = Some(
             reloc

@@ -7,6 +7,11 @@
 //! detection) without detecting it again. Spurious detections land on ground in view and are
 //! refuted within a frame or two; a small half-buried rock glimpsed once and then beside the
 //! rover (where neither camera looks) stays an obstacle instead of being forgotten.
+//!
+//! Size decides too: a rock counts only while a robust upper quantile of its measured radii
+//! reaches the threshold, and detections measured a little smaller are sightings of it
+//! (not misses). One generous measurement of a small rock no longer makes an obstacle of
+//! it for good, and a rock at the threshold is not refuted by its own small measurements.
 
 use crate::planning::Pose2;
 use crate::spatial::GridIndex;
@@ -50,6 +55,26 @@ pub struct ObstacleConfig {
     pub refute_confirmed_after_views: u32,
     /// … counting only the views at least this many frames after its last detection.
     pub stale_after_frames: u64,
+    /// Detections measured smaller than the avoid threshold (`min_rock_radius_m` ×
+    /// `radius_tolerance`) but at least this fraction of `min_rock_radius_m` count as
+    /// *sightings* of a remembered rock they land within `merge_radius_m` of: a sighting
+    /// is a detection (it confirms the rock and is no miss), and its radius joins the
+    /// rock's measured radii (`size_quantile`). The measured radius is noisy (15 % in the
+    /// simulation): a 0.085 m rock measured once at 0.104 m and then at 0.055–0.067 m was
+    /// otherwise refuted by its own small sightings. 0: off (smaller detections are
+    /// ignored). Default 0.5 (BENCHMARKS.md, "Obstacle sizes from their sightings").
+    pub sighting_radius_fraction: f64,
+    /// A rock's radius is this quantile of its measured radii (since it was last refuted),
+    /// and it counts only while that reaches the threshold: 1 takes the largest (one
+    /// generous measurement keeps a 0.06 m rock an obstacle for good), 0.5 the median (a
+    /// small neighbour merged into the same obstacle drags a large rock's median below
+    /// the threshold), in between a robust upper value. Default 0.75.
+    pub size_quantile: f64,
+    /// A refuted rock detected again within this many frames of its previous detection
+    /// gets its earlier detections back (a rock in plain view missed once by chance, which
+    /// a second detection then confirms); farther apart, the earlier ones stay forgotten,
+    /// so spurious detections near one another over a long stay do not add up. 0: off.
+    pub redetect_window_frames: u64,
     /// Unconfirmed rocks count only within this distance of the rover
     /// ([`ObstacleMemory::set_rover_position`]), metres: farther ones will be seen again (and
     /// confirmed or refuted) if the rover heads for them.
@@ -70,6 +95,9 @@ impl Default for ObstacleConfig {
             unconfirmed_range_m: 2.5,
             refute_confirmed_after_views: 0,
             stale_after_frames: 60,
+            sighting_radius_fraction: 0.5,
+            size_quantile: 0.75,
+            redetect_window_frames: 0,
         }
     }
 }
@@ -88,6 +116,11 @@ pub struct Obstacle {
     pub misses: u32,
     /// The frame ([`ObstacleMemory::start_frame`]) of the latest detection.
     pub last_hit_frame: u64,
+    /// Number of measured radii since it was last refuted (0: a lander point).
+    pub sightings: u32,
+    /// Detections it had when it was last refuted (restored by a prompt re-detection,
+    /// `redetect_window_frames`).
+    pub refuted_hits: u32,
 }
 
 /// The remembered obstacles.
@@ -95,6 +128,8 @@ pub struct Obstacle {
 pub struct ObstacleMemory {
     config: ObstacleConfig,
     obstacles: Vec<Obstacle>,
+    /// Each obstacle's measured radii since it was last refuted, metres.
+    radii: Vec<Vec<f64>>,
     index: GridIndex,
     max_radius_m: f64,
     frame: u64,
@@ -111,6 +146,7 @@ impl ObstacleMemory {
         Self {
             config: config.clone(),
             obstacles: Vec::new(),
+            radii: Vec::new(),
             index: GridIndex::new(1.0),
             max_radius_m: 0.0,
             frame: 0,
@@ -135,6 +171,9 @@ impl ObstacleMemory {
     /// Whether an obstacle counts: confirmed, or unconfirmed, not refuted (no hits left)
     /// and near the rover.
     fn counts(&self, o: &Obstacle) -> bool {
+        if o.sightings > 0 && o.radius_m < self.avoid_radius_m() {
+            return false;
+        }
         o.hits >= self.config.min_hits
             || (self.config.refute_after_views > 0
                 && o.hits > 0
@@ -200,9 +239,9 @@ impl ObstacleMemory {
                 self.config.refute_after_views
             };
             if o.misses >= refute {
+                o.refuted_hits = o.hits;
                 o.hits = 0;
                 o.misses = 0;
-                o.radius_m = 0.0;
             }
         }
     }
@@ -220,20 +259,30 @@ impl ObstacleMemory {
     /// Remember a rock detected at `p` (session frame) with measured `radius_m`; rocks too
     /// small to matter and non-finite input are ignored. Returns whether it was kept.
     pub fn add_rock(&mut self, p: Point2<f64>, radius_m: f64) -> bool {
-        if radius_m.is_nan()
-            || radius_m < self.config.min_rock_radius_m * self.config.radius_tolerance
-        {
+        if radius_m.is_nan() {
             return false;
         }
-        self.add(p, radius_m, 1)
+        if radius_m >= self.avoid_radius_m() {
+            return self.add(p, radius_m, 1, true);
+        }
+        // a smaller detection: only a sighting of a rock already remembered
+        let floor = self.config.sighting_radius_fraction * self.config.min_rock_radius_m;
+        floor > 0.0 && radius_m >= floor && self.add(p, radius_m, 1, false)
+    }
+
+    /// The measured radius from which a detection is a rock to avoid, metres.
+    fn avoid_radius_m(&self) -> f64 {
+        self.config.min_rock_radius_m * self.config.radius_tolerance
     }
 
     /// Remember a point measured on the lander (radius 0: the point itself is the obstacle).
     pub fn add_point(&mut self, p: Point2<f64>) -> bool {
-        self.add(p, 0.0, self.config.min_hits.max(1))
+        self.add(p, 0.0, self.config.min_hits.max(1), true)
     }
 
-    fn add(&mut self, p: Point2<f64>, radius_m: f64, hits: u32) -> bool {
+    /// Merge a detection into the nearest remembered obstacle within `merge_radius_m`, or
+    /// (when `may_start`) remember a new one.
+    fn add(&mut self, p: Point2<f64>, radius_m: f64, hits: u32, may_start: bool) -> bool {
         if !p.x.is_finite() || !p.y.is_finite() || !radius_m.is_finite() {
             return false;
         }
@@ -245,9 +294,26 @@ impl ObstacleMemory {
                 nearest = Some((id, d));
             }
         });
+        let (frame, window) = (self.frame, self.config.redetect_window_frames);
+        let quantile = self.config.size_quantile;
+        // a sighting merges into a rock only (lander points have no sightings)
+        let nearest =
+            nearest.filter(|&(id, _)| may_start || self.obstacles[id as usize].sightings > 0);
         match nearest {
             Some((id, _)) => {
                 let o = &mut self.obstacles[id as usize];
+                let radii = &mut self.radii[id as usize];
+                if o.hits == 0 && o.sightings > 0 {
+                    // refuted: detected again promptly, it gets its detections back;
+                    // otherwise it starts afresh
+                    if window > 0 && frame.saturating_sub(o.last_hit_frame) <= window {
+                        o.hits = o.refuted_hits;
+                    } else {
+                        radii.clear();
+                        o.sightings = 0;
+                        o.radius_m = 0.0;
+                    }
+                }
                 let old = o.p;
                 // running mean, but never weighting the newest detection below
                 // `recent_weight`: odometry drifts, and the latest detection was made in the
@@ -257,19 +323,31 @@ impl ObstacleMemory {
                 o.p = Point2::from(old.coords + (p.coords - old.coords) * w);
                 o.hits += hits;
                 o.misses = 0;
-                o.last_hit_frame = self.frame;
-                o.radius_m = o.radius_m.max(radius_m);
+                o.last_hit_frame = frame;
+                if radius_m > 0.0 {
+                    radii.push(radius_m);
+                    o.sightings += 1;
+                    o.radius_m = quantile_of(radii, quantile);
+                }
                 let (old3, new3) = (p3(&old), p3(&o.p));
                 self.index.relocate(id, &old3, &new3);
             }
+            None if !may_start => return false,
             None => {
                 self.index.insert(self.obstacles.len() as u32, &p3(&p));
+                self.radii.push(if radius_m > 0.0 {
+                    vec![radius_m]
+                } else {
+                    Vec::new()
+                });
                 self.obstacles.push(Obstacle {
                     p,
                     radius_m,
                     hits,
                     misses: 0,
-                    last_hit_frame: self.frame,
+                    last_hit_frame: frame,
+                    sightings: u32::from(radius_m > 0.0),
+                    refuted_hits: 0,
                 });
             }
         }
@@ -304,157 +382,17 @@ impl ObstacleMemory {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn reanchoring_moves_each_obstacle_with_its_frame() {
-        let mut m = ObstacleMemory::new(&ObstacleConfig::default());
-        m.start_frame();
-        m.add_rock(Point2::new(1.0, 0.0), 0.2);
-        m.start_frame();
-        m.add_rock(Point2::new(5.0, 0.0), 0.2);
-        // frame 2's pose was 0.3 m off in y; frame 1's was right
-        m.reanchor(|frame, p| {
-            if frame == 2 {
-                Point2::new(p.x, p.y + 0.3)
-            } else {
-                p
-            }
-        });
-        assert_eq!(m.obstacles()[0].p, Point2::new(1.0, 0.0));
-        assert_eq!(m.obstacles()[1].p, Point2::new(5.0, 0.3));
-        // the index follows: a detection at the new place merges
-        m.start_frame();
-        m.add_rock(Point2::new(5.0, 0.31), 0.2);
-        assert_eq!(m.obstacles().len(), 2);
-    }
-
-    #[test]
-    fn merges_and_filters() {
-        let mut m = ObstacleMemory::new(&ObstacleConfig::default());
-        assert!(!m.add_rock(Point2::new(1.0, 1.0), 0.03));
-        assert!(m.add_rock(Point2::new(1.0, 1.0), 0.1));
-        assert!(m.add_rock(Point2::new(1.1, 1.0), 0.12));
-        assert!(!m.add_rock(Point2::new(f64::NAN, 1.0), 0.2));
-        assert_eq!(m.obstacles().len(), 1);
-        let o = m.obstacles()[0];
-        assert_eq!(o.hits, 2);
-        assert!((o.p.x - 1.05).abs() < 1e-12 && (o.radius_m - 0.12).abs() < 1e-12);
-        // later detections weigh at least `recent_weight`
-        m.add_rock(Point2::new(1.05, 1.0), 0.1);
-        m.add_rock(Point2::new(1.3, 1.0), 0.1);
-        assert!((m.obstacles()[0].p.x - 1.15).abs() < 1e-12);
-        assert!(m.add_point(Point2::new(3.0, 0.0)));
-        assert!(m.add_rock(Point2::new(2.0, 1.0), 0.2));
-        // the merged rock, the lander point and the (unconfirmed, unrefuted) new rock
-        let mut seen = 0;
-        m.for_each_near(Point2::new(2.0, 0.5), 1.5, |_| seen += 1);
-        assert_eq!(seen, 3);
-    }
-
-    #[test]
-    fn stale_confirmed_rocks_are_dropped_only_when_asked() {
-        let config = ObstacleConfig {
-            refute_confirmed_after_views: 2,
-            stale_after_frames: 10,
-            ..ObstacleConfig::default()
-        };
-        let rock = Point2::new(2.0, 0.0);
-        let look = |m: &mut ObstacleMemory, frames: usize| {
-            for _ in 0..frames {
-                m.start_frame();
-                m.record_view(Pose2::new(0.5, 0.0, 0.0), 0.6, 0.5);
-            }
-        };
-        for (config, kept) in [(config.clone(), false), (ObstacleConfig::default(), true)] {
-            let mut m = ObstacleMemory::new(&config);
-            m.start_frame();
-            m.add_rock(rock, 0.1);
-            m.start_frame();
-            m.add_rock(rock, 0.1);
-            // recently detected: views without it do not count yet
-            look(&mut m, 9);
-            assert_eq!(count_near(&m, rock), 1);
-            assert_eq!(m.obstacles()[0].misses, 0);
-            // old and in view twice without a detection: a stale copy, dropped
-            look(&mut m, 2);
-            assert_eq!(count_near(&m, rock), usize::from(kept));
-        }
-        // lander points are never dropped
-        let mut m = ObstacleMemory::new(&config);
-        m.add_point(rock);
-        look(&mut m, 30);
-        assert_eq!(count_near(&m, rock), 1);
-    }
-
-    fn count_near(m: &ObstacleMemory, p: Point2<f64>) -> usize {
-        let mut n = 0;
-        m.for_each_near(p, 0.5, |_| n += 1);
-        n
-    }
-
-    #[test]
-    fn unconfirmed_rocks_count_until_refuted_by_views() {
-        let mut m = ObstacleMemory::new(&ObstacleConfig {
-            refute_after_views: 2,
-            ..ObstacleConfig::default()
-        });
-        let half_fov = 0.6;
-        m.start_frame();
-        let rock = Point2::new(2.0, 0.0);
-        assert!(m.add_rock(rock, 0.1));
-        // the frame that detected it does not count against it
-        m.record_view(Pose2::new(0.0, 0.0, 0.0), half_fov, 0.5);
-        assert_eq!(count_near(&m, rock), 1);
-        // beside the camera, too far, or too near: no evidence
-        m.start_frame();
-        m.record_view(Pose2::new(0.0, 0.0, 1.2), half_fov, 0.5);
-        m.record_view(Pose2::new(-1.0, 0.0, 0.0), half_fov, 0.5);
-        m.record_view(Pose2::new(1.7, 0.0, 0.0), half_fov, 0.5);
-        assert_eq!(m.obstacles()[0].misses, 0);
-        // two views straight at it without a detection: refuted
-        m.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
-        assert_eq!(count_near(&m, rock), 1);
-        m.start_frame();
-        m.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
-        assert_eq!(count_near(&m, rock), 0);
-        // detected again: unconfirmed again (the refuted detection is gone), until a second
-        // detection confirms it for good
-        m.start_frame();
-        assert!(m.add_rock(rock, 0.1));
-        assert_eq!(m.obstacles()[0].hits, 1);
-        assert_eq!(count_near(&m, rock), 1);
-        m.start_frame();
-        assert!(m.add_rock(rock, 0.1));
-        for _ in 0..3 {
-            m.start_frame();
-            m.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
-        }
-        assert_eq!(count_near(&m, rock), 1);
-        // unconfirmed rocks far from the rover do not count
-        m.start_frame();
-        let far = Point2::new(-3.0, 0.0);
-        assert!(m.add_rock(far, 0.1));
-        assert_eq!(count_near(&m, far), 1);
-        m.set_rover_position(Point2::new(0.0, 0.0));
-        assert_eq!(count_near(&m, far), 0);
-        m.set_rover_position(Point2::new(-1.0, 0.0));
-        assert_eq!(count_near(&m, far), 1);
-        // without refutation, unconfirmed rocks never count
-        let mut old = ObstacleMemory::new(&ObstacleConfig {
-            refute_after_views: 0,
-            ..ObstacleConfig::default()
-        });
-        old.start_frame();
-        assert!(old.add_rock(rock, 0.1));
-        assert_eq!(count_near(&old, rock), 0);
-        // … and are not refuted: a second detection after a view confirms them
-        old.start_frame();
-        old.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
-        old.start_frame();
-        assert!(old.add_rock(rock, 0.1));
-        assert_eq!(count_near(&old, rock), 1);
-    }
+/// The `q` quantile (0–1, nearest rank) of `values`; 0 when empty.
+fn quantile_of(values: &[f64], q: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let Some(last) = sorted.len().checked_sub(1) else {
+        return 0.0;
+    };
+    let k = (q.clamp(0.0, 1.0) * last as f64).round() as usize;
+    sorted[k.min(last)]
 }
+
+#[cfg(test)]
+#[path = "obstacles_tests.rs"]
+mod tests;

@@ -1,0 +1,232 @@
+//! Tests of the obstacle memory.
+
+use super::*;
+
+#[test]
+fn reanchoring_moves_each_obstacle_with_its_frame() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+    m.start_frame();
+    m.add_rock(Point2::new(1.0, 0.0), 0.2);
+    m.start_frame();
+    m.add_rock(Point2::new(5.0, 0.0), 0.2);
+    // frame 2's pose was 0.3 m off in y; frame 1's was right
+    m.reanchor(|frame, p| {
+        if frame == 2 {
+            Point2::new(p.x, p.y + 0.3)
+        } else {
+            p
+        }
+    });
+    assert_eq!(m.obstacles()[0].p, Point2::new(1.0, 0.0));
+    assert_eq!(m.obstacles()[1].p, Point2::new(5.0, 0.3));
+    // the index follows: a detection at the new place merges
+    m.start_frame();
+    m.add_rock(Point2::new(5.0, 0.31), 0.2);
+    assert_eq!(m.obstacles().len(), 2);
+}
+
+#[test]
+fn merges_and_filters() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+    assert!(!m.add_rock(Point2::new(1.0, 1.0), 0.03));
+    assert!(m.add_rock(Point2::new(1.0, 1.0), 0.1));
+    assert!(m.add_rock(Point2::new(1.1, 1.0), 0.12));
+    assert!(!m.add_rock(Point2::new(f64::NAN, 1.0), 0.2));
+    assert_eq!(m.obstacles().len(), 1);
+    let o = m.obstacles()[0];
+    assert_eq!(o.hits, 2);
+    assert!((o.p.x - 1.05).abs() < 1e-12 && (o.radius_m - 0.12).abs() < 1e-12);
+    // later detections weigh at least `recent_weight`
+    m.add_rock(Point2::new(1.05, 1.0), 0.1);
+    m.add_rock(Point2::new(1.3, 1.0), 0.1);
+    assert!((m.obstacles()[0].p.x - 1.15).abs() < 1e-12);
+    assert!(m.add_point(Point2::new(3.0, 0.0)));
+    assert!(m.add_rock(Point2::new(2.0, 1.0), 0.2));
+    // the merged rock, the lander point and the (unconfirmed, unrefuted) new rock
+    let mut seen = 0;
+    m.for_each_near(Point2::new(2.0, 0.5), 1.5, |_| seen += 1);
+    assert_eq!(seen, 3);
+}
+
+#[test]
+fn stale_confirmed_rocks_are_dropped_only_when_asked() {
+    let config = ObstacleConfig {
+        refute_confirmed_after_views: 2,
+        stale_after_frames: 10,
+        ..ObstacleConfig::default()
+    };
+    let rock = Point2::new(2.0, 0.0);
+    let look = |m: &mut ObstacleMemory, frames: usize| {
+        for _ in 0..frames {
+            m.start_frame();
+            m.record_view(Pose2::new(0.5, 0.0, 0.0), 0.6, 0.5);
+        }
+    };
+    for (config, kept) in [(config.clone(), false), (ObstacleConfig::default(), true)] {
+        let mut m = ObstacleMemory::new(&config);
+        m.start_frame();
+        m.add_rock(rock, 0.1);
+        m.start_frame();
+        m.add_rock(rock, 0.1);
+        // recently detected: views without it do not count yet
+        look(&mut m, 9);
+        assert_eq!(count_near(&m, rock), 1);
+        assert_eq!(m.obstacles()[0].misses, 0);
+        // old and in view twice without a detection: a stale copy, dropped
+        look(&mut m, 2);
+        assert_eq!(count_near(&m, rock), usize::from(kept));
+    }
+    // lander points are never dropped
+    let mut m = ObstacleMemory::new(&config);
+    m.add_point(rock);
+    look(&mut m, 30);
+    assert_eq!(count_near(&m, rock), 1);
+}
+
+fn count_near(m: &ObstacleMemory, p: Point2<f64>) -> usize {
+    let mut n = 0;
+    m.for_each_near(p, 0.5, |_| n += 1);
+    n
+}
+
+#[test]
+fn unconfirmed_rocks_count_until_refuted_by_views() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig {
+        refute_after_views: 2,
+        ..ObstacleConfig::default()
+    });
+    let half_fov = 0.6;
+    m.start_frame();
+    let rock = Point2::new(2.0, 0.0);
+    assert!(m.add_rock(rock, 0.1));
+    // the frame that detected it does not count against it
+    m.record_view(Pose2::new(0.0, 0.0, 0.0), half_fov, 0.5);
+    assert_eq!(count_near(&m, rock), 1);
+    // beside the camera, too far, or too near: no evidence
+    m.start_frame();
+    m.record_view(Pose2::new(0.0, 0.0, 1.2), half_fov, 0.5);
+    m.record_view(Pose2::new(-1.0, 0.0, 0.0), half_fov, 0.5);
+    m.record_view(Pose2::new(1.7, 0.0, 0.0), half_fov, 0.5);
+    assert_eq!(m.obstacles()[0].misses, 0);
+    // two views straight at it without a detection: refuted
+    m.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
+    assert_eq!(count_near(&m, rock), 1);
+    m.start_frame();
+    m.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
+    assert_eq!(count_near(&m, rock), 0);
+    // detected again: unconfirmed again (the refuted detection is gone), until a second
+    // detection confirms it for good
+    m.start_frame();
+    assert!(m.add_rock(rock, 0.1));
+    assert_eq!(m.obstacles()[0].hits, 1);
+    assert_eq!(count_near(&m, rock), 1);
+    m.start_frame();
+    assert!(m.add_rock(rock, 0.1));
+    for _ in 0..3 {
+        m.start_frame();
+        m.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
+    }
+    assert_eq!(count_near(&m, rock), 1);
+    // unconfirmed rocks far from the rover do not count
+    m.start_frame();
+    let far = Point2::new(-3.0, 0.0);
+    assert!(m.add_rock(far, 0.1));
+    assert_eq!(count_near(&m, far), 1);
+    m.set_rover_position(Point2::new(0.0, 0.0));
+    assert_eq!(count_near(&m, far), 0);
+    m.set_rover_position(Point2::new(-1.0, 0.0));
+    assert_eq!(count_near(&m, far), 1);
+    // without refutation, unconfirmed rocks never count
+    let mut old = ObstacleMemory::new(&ObstacleConfig {
+        refute_after_views: 0,
+        ..ObstacleConfig::default()
+    });
+    old.start_frame();
+    assert!(old.add_rock(rock, 0.1));
+    assert_eq!(count_near(&old, rock), 0);
+    // … and are not refuted: a second detection after a view confirms them
+    old.start_frame();
+    old.record_view(Pose2::new(0.5, 0.0, 0.0), half_fov, 0.5);
+    old.start_frame();
+    assert!(old.add_rock(rock, 0.1));
+    assert_eq!(count_near(&old, rock), 1);
+}
+
+#[test]
+fn small_sightings_keep_a_rock_and_its_size_is_a_quantile() {
+    let config = ObstacleConfig {
+        sighting_radius_fraction: 0.5,
+        size_quantile: 0.75,
+        ..ObstacleConfig::default()
+    };
+    let rock = Point2::new(2.0, 0.0);
+    let camera = Pose2::new(0.5, 0.0, 0.0);
+    // a 0.085 m rock measured large once, then small: the small sightings are detections,
+    // not misses, and confirm it
+    let mut m = ObstacleMemory::new(&config);
+    m.start_frame();
+    assert!(m.add_rock(rock, 0.104));
+    for r in [0.066, 0.08, 0.09] {
+        m.start_frame();
+        assert!(m.add_rock(rock, r));
+        m.record_view(camera, 0.6, 0.5);
+    }
+    let o = m.obstacles()[0];
+    assert_eq!((o.hits, o.misses, o.sightings), (4, 0, 4));
+    // nearest rank 0.75 of [0.066, 0.08, 0.09, 0.104]
+    assert!((o.radius_m - 0.09).abs() < 1e-12);
+    assert_eq!(count_near(&m, rock), 1);
+    // a small detection starts nothing on its own
+    m.start_frame();
+    assert!(!m.add_rock(Point2::new(-3.0, 0.0), 0.06));
+    assert!(!m.add_rock(Point2::new(2.05, 0.0), 0.03));
+    assert_eq!(m.obstacles().len(), 1);
+    // a small rock measured large once and small since stops counting
+    let mut m = ObstacleMemory::new(&config);
+    m.start_frame();
+    assert!(m.add_rock(rock, 0.07));
+    for r in [0.05, 0.055, 0.06] {
+        m.start_frame();
+        assert!(m.add_rock(rock, r));
+    }
+    assert_eq!(count_near(&m, rock), 0);
+    // without sightings small detections are ignored, and they are misses
+    let mut old = ObstacleMemory::new(&ObstacleConfig {
+        sighting_radius_fraction: 0.0,
+        size_quantile: 1.0,
+        ..ObstacleConfig::default()
+    });
+    old.start_frame();
+    assert!(old.add_rock(rock, 0.104));
+    old.start_frame();
+    assert!(!old.add_rock(rock, 0.06));
+    old.record_view(camera, 0.6, 0.5);
+    assert_eq!(count_near(&old, rock), 0);
+}
+
+#[test]
+fn a_prompt_redetection_restores_the_detections() {
+    let rock = Point2::new(2.0, 0.0);
+    let camera = Pose2::new(0.5, 0.0, 0.0);
+    let detect_miss_detect = |window: u64, gap: usize| {
+        let mut m = ObstacleMemory::new(&ObstacleConfig {
+            redetect_window_frames: window,
+            ..ObstacleConfig::default()
+        });
+        m.start_frame();
+        m.add_rock(rock, 0.1);
+        for _ in 0..gap {
+            m.start_frame();
+            m.record_view(camera, 0.6, 0.5);
+        }
+        assert_eq!(count_near(&m, rock), 0, "refuted by the views");
+        m.start_frame();
+        m.add_rock(rock, 0.1);
+        m.obstacles()[0].hits
+    };
+    // within the window the earlier detection comes back and confirms the rock
+    assert_eq!(detect_miss_detect(5, 1), 2);
+    // too late, or without the window: it starts afresh
+    assert_eq!(detect_miss_detect(5, 8), 1);
+    assert_eq!(detect_miss_detect(0, 1), 1);
+}
