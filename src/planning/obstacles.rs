@@ -107,7 +107,7 @@ impl Default for ObstacleConfig {
 pub struct Obstacle {
     /// Position, session frame (running mean of its detections), metres.
     pub p: Point2<f64>,
-    /// Radius to keep clear of, metres (largest measured).
+    /// Radius to keep clear of, metres (the `size_quantile` of its measured radii).
     pub radius_m: f64,
     /// Number of detections merged in (since it was last refuted; 0: refuted).
     pub hits: u32,
