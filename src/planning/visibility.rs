@@ -1,9 +1,13 @@
 //! Which ground the cameras have seen: a set of small square cells marked when they fall in a
 //! camera's view cone. The arc planner treats unseen ground as possibly blocked, because the
 //! IPEX's cameras look only forward and backward and a rock beside the rover is invisible.
+//!
+//! A cell can be required to have been seen in several camera frames
+//! ([`SeenGrid::with_min_views`]): a visible rock is missed in one frame now and then, so one
+//! frame that saw its ground is weaker evidence that the ground is clear than two.
 
 use crate::planning::Pose2;
-use rustc_hash::FxHashSet as HashSet;
+use rustc_hash::FxHashMap as HashMap;
 
 /// Cells on either side of the origin kept in the dense bitmap (±64 m at 0.25 m cells);
 /// the rare cells beyond go to a set.
@@ -15,24 +19,49 @@ pub struct SeenGrid {
     cell_m: f64,
     /// Cells within ±`DENSE_HALF_CELLS` of the origin, row-major (the arc planner looks up
     /// thousands of cells per control cycle: with a hash set the lookups were 14 % of a
-    /// mission's time).
-    dense: Vec<bool>,
-    /// Seen cells outside the dense window.
-    outside: HashSet<(i64, i64)>,
+    /// mission's time): the number of frames that saw each cell (saturating; `KNOWN` for
+    /// ground the rover stood on).
+    dense: Vec<u8>,
+    /// The last frame that counted for each dense cell.
+    dense_frame: Vec<u32>,
+    /// Seen cells outside the dense window: frames and last frame.
+    outside: HashMap<(i64, i64), (u8, u32)>,
+    /// Frames a cell must have been seen in to count as seen.
+    min_views: u8,
+    /// The current frame ([`SeenGrid::start_frame`]).
+    frame: u32,
 }
+
+/// View count of ground the rover stood on: known whatever `min_views` asks.
+const KNOWN: u8 = u8::MAX;
 
 impl SeenGrid {
     /// Empty, with square cells of `cell_m` metres.
     pub fn new(cell_m: f64) -> Self {
+        Self::with_min_views(cell_m, 1)
+    }
+
+    /// Empty, with square cells of `cell_m` metres that count as seen once seen in
+    /// `min_views` frames (at least 1).
+    pub fn with_min_views(cell_m: f64, min_views: u8) -> Self {
+        let cells = (2 * DENSE_HALF_CELLS * 2 * DENSE_HALF_CELLS) as usize;
         Self {
             cell_m: if cell_m.is_finite() && cell_m > 0.01 {
                 cell_m
             } else {
                 0.25
             },
-            dense: vec![false; (2 * DENSE_HALF_CELLS * 2 * DENSE_HALF_CELLS) as usize],
-            outside: HashSet::default(),
+            dense: vec![0; cells],
+            dense_frame: vec![0; cells],
+            outside: HashMap::default(),
+            min_views: min_views.max(1),
+            frame: 1,
         }
+    }
+
+    /// Start a new camera frame: each cell counts at most once per frame.
+    pub fn start_frame(&mut self) {
+        self.frame = self.frame.wrapping_add(1).max(1);
     }
 
     fn dense_index(&self, (i, j): (i64, i64)) -> Option<usize> {
@@ -41,18 +70,33 @@ impl SeenGrid {
         ((0..side).contains(&a) && (0..side).contains(&b)).then(|| (a * side + b) as usize)
     }
 
-    fn contains(&self, key: (i64, i64)) -> bool {
+    fn views(&self, key: (i64, i64)) -> u8 {
         match self.dense_index(key) {
             Some(k) => self.dense[k],
-            None => self.outside.contains(&key),
+            None => self.outside.get(&key).map_or(0, |&(n, _)| n),
         }
     }
 
-    fn insert(&mut self, key: (i64, i64)) {
+    fn contains(&self, key: (i64, i64)) -> bool {
+        self.views(key) >= self.min_views
+    }
+
+    /// Count one view of a cell in this frame (`known`: the rover stood on it).
+    fn insert(&mut self, key: (i64, i64), known: bool) {
+        let frame = self.frame;
+        let count = |n: &mut u8, last: &mut u32| {
+            if known {
+                *n = KNOWN;
+            } else if *last != frame {
+                *n = n.saturating_add(1);
+            }
+            *last = frame;
+        };
         match self.dense_index(key) {
-            Some(k) => self.dense[k] = true,
+            Some(k) => count(&mut self.dense[k], &mut self.dense_frame[k]),
             None => {
-                self.outside.insert(key);
+                let (n, last) = self.outside.entry(key).or_insert((0, 0));
+                count(n, last);
             }
         }
     }
@@ -66,12 +110,14 @@ impl SeenGrid {
 
     /// Number of seen cells.
     pub fn len(&self) -> usize {
-        self.dense.iter().filter(|&&seen| seen).count() + self.outside.len()
+        let seen = |n: u8| n >= self.min_views;
+        self.dense.iter().filter(|&&n| seen(n)).count()
+            + self.outside.values().filter(|&&(n, _)| seen(n)).count()
     }
 
     /// Whether nothing has been seen.
     pub fn is_empty(&self) -> bool {
-        self.outside.is_empty() && !self.dense.contains(&true)
+        self.len() == 0
     }
 
     /// Whether the cell holding (x, y) has been seen.
@@ -101,15 +147,16 @@ impl SeenGrid {
                 let cy = (j as f64 + 0.5) * self.cell_m - camera.y;
                 let d = cx.hypot(cy);
                 if d >= min_m && d <= max_m && (cx * ax + cy * ay) >= cos_half * d {
-                    self.insert((i, j));
+                    self.insert((i, j), false);
                 }
             }
         }
     }
 
-    /// Mark every cell within `radius_m` of (x, y) (the ground under the rover).
+    /// Mark every cell within `radius_m` of (x, y) as known, whatever `min_views` asks (the
+    /// ground under the rover).
     pub fn mark_disc(&mut self, x: f64, y: f64, radius_m: f64) {
-        self.mark_disc_seen_from(x, y, radius_m, None);
+        self.mark_cells(x, y, radius_m, None, true);
     }
 
     /// Mark the cells within `radius_m` of a ground point at (x, y) measured from
@@ -123,6 +170,17 @@ impl SeenGrid {
         y: f64,
         radius_m: f64,
         from: Option<(f64, f64, f64)>,
+    ) {
+        self.mark_cells(x, y, radius_m, from, false);
+    }
+
+    fn mark_cells(
+        &mut self,
+        x: f64,
+        y: f64,
+        radius_m: f64,
+        from: Option<(f64, f64, f64)>,
+        known: bool,
     ) {
         if !x.is_finite() || !y.is_finite() || !(0.0..=100.0).contains(&radius_m) {
             return;
@@ -143,7 +201,7 @@ impl SeenGrid {
                 let cy = (j as f64 + 0.5) * self.cell_m - y;
                 let behind = sight.is_some_and(|(ux, uy, toward_m)| cx * ux + cy * uy < -toward_m);
                 if cx.hypot(cy) <= radius_m && !behind {
-                    self.insert((i, j));
+                    self.insert((i, j), known);
                 }
             }
         }
@@ -178,6 +236,27 @@ mod tests {
         full.mark_disc_seen_from(3.0, 0.0, 0.35, None);
         assert!(full.is_seen(2.75, 0.0));
         assert!(full.len() > g.len());
+    }
+
+    #[test]
+    fn with_two_views_a_cell_needs_two_frames() {
+        let mut g = SeenGrid::with_min_views(0.25, 2);
+        g.start_frame();
+        g.mark_disc_seen_from(3.0, 0.0, 0.3, None);
+        // a second point of the same frame does not count again
+        g.mark_disc_seen_from(3.05, 0.0, 0.3, None);
+        assert!(!g.is_seen(3.0, 0.0));
+        g.start_frame();
+        g.mark_disc_seen_from(3.0, 0.0, 0.3, None);
+        assert!(g.is_seen(3.0, 0.0));
+        // far cells alike; the ground under the rover is known at once
+        g.mark_disc_seen_from(100.0, 0.0, 0.2, None);
+        assert!(!g.is_seen(100.0, 0.0));
+        g.start_frame();
+        g.mark_disc_seen_from(100.0, 0.0, 0.2, None);
+        assert!(g.is_seen(100.0, 0.0));
+        g.mark_disc(-2.0, 0.0, 0.3);
+        assert!(g.is_seen(-2.0, 0.0));
     }
 
     #[test]

@@ -104,6 +104,11 @@ pub struct SessionConfig {
     /// in front of a measured point may lie hidden in a dip: its own points would show it).
     /// Unset: the whole disc.
     pub seen_ground_toward_camera_m: Option<f64>,
+    /// Ground counts as seen once seen in this many camera frames (a visible rock is missed
+    /// in one frame now and then; the ground the rover stood on is known at once). Measured
+    /// at 2 and 3 over 60 seeds (BENCHMARKS.md, "Obstacle sizes from their sightings"): no
+    /// fewer collisions, so 1.
+    pub seen_ground_min_views: u8,
     /// Waypoint pattern.
     pub waypoints: WaypointConfig,
 }
@@ -124,6 +129,7 @@ impl Default for SessionConfig {
             obstacles: ObstacleConfig::default(),
             seen_ground_point_radius_m: 0.35,
             seen_ground_toward_camera_m: None,
+            seen_ground_min_views: 1,
             waypoints: WaypointConfig::default(),
         }
     }
@@ -247,7 +253,7 @@ impl<'a> SessionSim<'a> {
             far_rng: ChaCha8Rng::seed_from_u64(seed ^ FAR_STREAM),
             navigator,
             obstacles: ObstacleMemory::new(&config.obstacles),
-            seen: SeenGrid::new(0.25),
+            seen: SeenGrid::with_min_views(0.25, config.seen_ground_min_views),
             planner_from_session: Isometry3::identity(),
             planner_history: Vec::new(),
             log: SessionLog {
@@ -363,6 +369,7 @@ impl<'a> SessionSim<'a> {
         let est = self.planner_from_session * tick.session_from_rover;
         self.planner_history.push(self.planner_from_session);
         self.obstacles.start_frame();
+        self.seen.start_frame();
         for b in &obs.boulders {
             let p = est * b.p_rover;
             self.obstacles.add_rock(Point2::new(p.x, p.y), b.radius_m);
