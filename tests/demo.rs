@@ -69,6 +69,10 @@ fn demo_refuses_a_bad_mission_config_naming_the_file() {
             "[session]\nseen_ground_toward_camera_m = -1.0\n",
             "seen_ground_toward_camera_m",
         ),
+        (
+            "[session_2.obstacles]\nsize_quantile = 1.5\n",
+            "size_quantile",
+        ),
     ] {
         std::fs::write(&config, text).unwrap();
         let output = segloc()
