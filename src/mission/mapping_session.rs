@@ -539,24 +539,16 @@ mod tests {
         // a small correction enters at once
         assert_eq!(gate.admit(closure(0..25, 0.1, 0), &graph, &config).len(), 1);
         // 1° off the graph: waits; a submap overlapping it asking the same does not confirm
-        assert!(gate
-            .admit(closure(10..35, 1.0, 1), &graph, &config)
-            .is_empty());
-        assert!(gate
-            .admit(closure(20..45, 1.0, 2), &graph, &config)
-            .is_empty());
+        assert!(gate.admit(closure(10..35, 1.0, 1), &graph, &config).is_empty());
+        assert!(gate.admit(closure(20..45, 1.0, 2), &graph, &config).is_empty());
         // a disjoint one does, with the newest waiting closure it does not overlap
         let admitted = gate.admit(closure(40..65, 1.0, 3), &graph, &config);
         let attempts: Vec<usize> = admitted.iter().map(|c| c.attempt).collect();
         assert_eq!(attempts, vec![1, 3]);
         assert!(gate.pending.is_empty());
         // a disjoint one asking for another correction does not
-        assert!(gate
-            .admit(closure(70..95, 1.0, 4), &graph, &config)
-            .is_empty());
-        assert!(gate
-            .admit(closure(100..125, -1.0, 5), &graph, &config)
-            .is_empty());
+        assert!(gate.admit(closure(70..95, 1.0, 4), &graph, &config).is_empty());
+        assert!(gate.admit(closure(100..125, -1.0, 5), &graph, &config).is_empty());
         assert_eq!(gate.pending.len(), 2);
     }
 }
