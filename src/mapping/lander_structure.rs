@@ -17,6 +17,7 @@
 //! truth enters it.
 
 use super::check_numbers;
+use crate::landmarks::estimate::median;
 use segloc_maps::Traverse;
 use serde::{Deserialize, Serialize};
 
@@ -113,14 +114,7 @@ pub fn lander_ground_from(
     if z.is_empty() {
         return None;
     }
-    z.sort_by(f64::total_cmp);
-    let n = z.len();
-    let median = if n % 2 == 1 {
-        z[n / 2]
-    } else {
-        0.5 * (z[n / 2 - 1] + z[n / 2])
-    };
-    Some((median, n))
+    Some((median(&mut z), z.len()))
 }
 
 #[cfg(test)]

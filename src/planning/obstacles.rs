@@ -102,6 +102,20 @@ impl Default for ObstacleConfig {
     }
 }
 
+impl ObstacleConfig {
+    /// Check the fields whose range is not already their type's: a message naming the
+    /// first bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(0.0..=1.0).contains(&self.size_quantile) {
+            return Err("obstacles.size_quantile must be within 0..1".into());
+        }
+        if !(0.0..=1.0).contains(&self.sighting_radius_fraction) {
+            return Err("obstacles.sighting_radius_fraction must be within 0..1".into());
+        }
+        Ok(())
+    }
+}
+
 /// One remembered obstacle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Obstacle {

@@ -164,12 +164,9 @@ impl SessionConfig {
         {
             return bad("seen_ground_toward_camera_m must be a non-negative number");
         }
-        if !(0.0..=1.0).contains(&self.obstacles.size_quantile) {
-            return bad("obstacles.size_quantile must be within 0..1");
-        }
-        if !(0.0..=1.0).contains(&self.obstacles.sighting_radius_fraction) {
-            return bad("obstacles.sighting_radius_fraction must be within 0..1");
-        }
+        self.obstacles
+            .validate()
+            .map_err(SessionError::InvalidConfig)?;
         if !self.navigator.glance.is_valid() {
             return bad(
                 "navigator.glance: period_s, turn_rate_rps and timeout_s must be positive, \
