@@ -246,7 +246,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .map(|h| {
                             format!("{:?} at {:.2} of {:.2}", h.target, h.distance_m, to.norm())
                         });
-                    eprintln!("      front ray {ray:?}");
+                    let uv = segloc::sim::sensors::project(&(cam.inverse() * rock.center).coords)
+                        .map(|(u, v)| format!("u {u:.0} v {v:.0}"));
+                    eprintln!("      front ray {ray:?} centre px {uv:?}");
                     eprintln!(
                         "    t {:.0} rock at range {:.2} bearing {:.0} deg, mode {:?} cmd {:.2} {:.2} detected {:?}",
                         f.time_s,

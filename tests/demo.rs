@@ -73,6 +73,10 @@ fn demo_refuses_a_bad_mission_config_naming_the_file() {
             "[session_2.obstacles]\nsize_quantile = 1.5\n",
             "size_quantile",
         ),
+        (
+            "[session.obstacles]\nnear_merge_radius_m = -0.1\n",
+            "near_merge_radius_m",
+        ),
     ] {
         std::fs::write(&config, text).unwrap();
         let output = segloc()

@@ -230,3 +230,62 @@ fn a_prompt_redetection_restores_the_detections() {
     assert_eq!(detect_miss_detect(5, 8), 1);
     assert_eq!(detect_miss_detect(0, 1), 1);
 }
+
+#[test]
+fn a_rock_below_the_image_is_not_missed() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+    m.start_frame();
+    // a rock on the ground (centre 0.05 m up) detected once, 2 m ahead of a camera 0.3 m up
+    let rock = Point3::new(2.0, 0.0, 0.05);
+    assert!(m.add_rock_at(rock, 0.1));
+    let camera_at = |x: f64| Isometry3::translation(x, 0.0, 0.3);
+    let (half_fov, half_vertical_fov) = (0.61, 0.375);
+    // 0.6 m away its centre lies 22° below the axis, below the image (21.5° half field of
+    // view): no miss, it stays an obstacle
+    m.start_frame();
+    m.record_camera_view(&camera_at(1.4), half_fov, half_vertical_fov, 0.5);
+    assert_eq!(m.obstacles()[0].misses, 0);
+    assert_eq!(count_near(&m, rock.xy()), 1);
+    // 1.5 m away it is well inside the image: a miss refutes it
+    m.start_frame();
+    m.record_camera_view(&camera_at(0.5), half_fov, half_vertical_fov, 0.5);
+    assert_eq!(count_near(&m, rock.xy()), 0);
+    // without the check, the first view had refuted it already
+    let mut flat = ObstacleMemory::new(&ObstacleConfig {
+        refute_within_image: false,
+        ..ObstacleConfig::default()
+    });
+    flat.start_frame();
+    assert!(flat.add_rock_at(rock, 0.1));
+    flat.start_frame();
+    flat.record_camera_view(&camera_at(1.4), half_fov, half_vertical_fov, 0.5);
+    assert_eq!(count_near(&flat, rock.xy()), 0);
+}
+
+#[test]
+fn near_detections_merge_only_when_close() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+    m.set_rover_position(Point2::new(0.0, 0.0));
+    m.start_frame();
+    // two rocks 0.25 m apart, 1 m from the rover: two obstacles that stay where they are
+    assert!(m.add_rock(Point2::new(1.0, 0.0), 0.1));
+    assert!(m.add_rock(Point2::new(1.0, 0.25), 0.1));
+    m.start_frame();
+    assert!(m.add_rock(Point2::new(1.0, 0.26), 0.1));
+    assert_eq!(m.obstacles().len(), 2);
+    assert_eq!(m.obstacles()[0].p, Point2::new(1.0, 0.0));
+    // far from the rover the usual radius applies
+    m.add_rock(Point2::new(5.0, 0.0), 0.1);
+    m.add_rock(Point2::new(5.0, 0.25), 0.1);
+    assert_eq!(m.obstacles().len(), 3);
+    // without it, the near pair is one obstacle that wanders between the two
+    let mut merged = ObstacleMemory::new(&ObstacleConfig {
+        near_merge_radius_m: 0.0,
+        ..ObstacleConfig::default()
+    });
+    merged.set_rover_position(Point2::new(0.0, 0.0));
+    merged.add_rock(Point2::new(1.0, 0.0), 0.1);
+    merged.add_rock(Point2::new(1.0, 0.25), 0.1);
+    assert_eq!(merged.obstacles().len(), 1);
+    assert!(merged.obstacles()[0].p.y > 0.1);
+}

@@ -37,7 +37,7 @@ use crate::planning::visibility::SeenGrid;
 use crate::planning::waypoints::{waypoints, WaypointConfig};
 use crate::planning::Pose2;
 use crate::sim::ipex::{footprint_radius_m, LUNAR_GRAVITY_MPS2, SITE_HALF_EXTENT_M, TICK_S};
-use crate::sim::ipex::{CX_PX, FOCAL_PX};
+use crate::sim::ipex::{CX_PX, CY_PX, FOCAL_PX};
 use crate::sim::moon::Moon;
 use crate::sim::rover::{Command, RoverConfig, RoverState};
 use crate::sim::sensors::{cameras, observe, observe_far, SensorConfig};
@@ -369,16 +369,23 @@ impl<'a> SessionSim<'a> {
         self.seen.start_frame();
         for b in &obs.boulders {
             let p = est * b.p_rover;
-            self.obstacles.add_rock(Point2::new(p.x, p.y), b.radius_m);
+            self.obstacles.add_rock_at(p, b.radius_m);
         }
         // unconfirmed rocks in view that were not detected again count a miss; the ground
         // the cameras saw (session frame)
         let seen_radius_m = self.config.seen_ground_point_radius_m;
         for camera in cameras() {
-            let cam = Pose2::from_isometry3(&(est * camera.rover_from_camera));
+            let session_from_camera = est * camera.rover_from_camera;
+            let cam = Pose2::from_isometry3(&session_from_camera);
             let half_fov = (CX_PX / FOCAL_PX).atan();
+            let half_vertical_fov = (CY_PX / FOCAL_PX).atan();
             let c = &self.config.sensors;
-            self.obstacles.record_view(cam, half_fov, c.min_range_m);
+            self.obstacles.record_camera_view(
+                &session_from_camera,
+                half_fov,
+                half_vertical_fov,
+                c.min_range_m,
+            );
             if seen_radius_m <= 0.0 {
                 self.seen.mark_view(
                     cam,
