@@ -289,3 +289,30 @@ fn near_detections_merge_only_when_close() {
     assert_eq!(merged.obstacles().len(), 1);
     assert!(merged.obstacles()[0].p.y > 0.1);
 }
+
+#[test]
+fn a_rock_of_another_size_is_another_rock() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+    m.set_rover_position(Point2::new(0.0, 0.0));
+    m.start_frame();
+    // a small rock 5 m away, twice
+    assert!(m.add_rock(Point2::new(5.0, 0.0), 0.07));
+    assert!(m.add_rock(Point2::new(5.0, 0.0), 0.07));
+    // a detection three times larger 0.2 m from it is a second rock ...
+    m.start_frame();
+    assert!(m.add_rock(Point2::new(5.0, 0.2), 0.21));
+    assert_eq!(m.obstacles().len(), 2);
+    assert_eq!(m.obstacles()[0].radius_m, 0.07);
+    // ... and one of a similar size is the small rock again
+    assert!(m.add_rock(Point2::new(5.0, 0.05), 0.1));
+    assert_eq!(m.obstacles().len(), 2);
+    assert_eq!(m.obstacles()[0].hits, 3);
+    // any size merges when asked
+    let mut any = ObstacleMemory::new(&ObstacleConfig {
+        merge_size_ratio: 0.0,
+        ..ObstacleConfig::default()
+    });
+    any.add_rock(Point2::new(5.0, 0.0), 0.07);
+    any.add_rock(Point2::new(5.0, 0.2), 0.21);
+    assert_eq!(any.obstacles().len(), 1);
+}
