@@ -216,20 +216,15 @@ impl ArcPlannerConfig {
             let off = self.unseen_check_offset_m;
             // the rover's surroundings (below the cameras' view while turning on the spot) are
             // taken as known: it drove there, or started on clear ground
-            // … except ground the cameras looked at and could not see (a dip, behind a crest)
-            for p in points {
+            for p in points
+                .iter()
+                .filter(|p| (p.x - here.x).hypot(p.y - here.y) > self.known_radius_m)
+            {
                 let (s, c) = p.yaw.sin_cos();
-                let probes = [
-                    (p.x, p.y),
-                    (p.x - s * off, p.y + c * off),
-                    (p.x + s * off, p.y - c * off),
-                ];
-                let blocked = if (p.x - here.x).hypot(p.y - here.y) > self.known_radius_m {
-                    probes.iter().any(|&(x, y)| !seen.is_seen(x, y))
-                } else {
-                    probes.iter().any(|&(x, y)| seen.is_shadowed(x, y))
-                };
-                if blocked {
+                if !seen.is_seen(p.x, p.y)
+                    || !seen.is_seen(p.x - s * off, p.y + c * off)
+                    || !seen.is_seen(p.x + s * off, p.y - c * off)
+                {
                     return false;
                 }
             }
@@ -349,7 +344,6 @@ impl ArcPlannerConfig {
 mod tests {
     use super::*;
     use crate::planning::obstacles::ObstacleConfig;
-    use nalgebra::Isometry3;
 
     #[test]
     fn arc_points_are_arc_poses() {
@@ -443,37 +437,6 @@ mod tests {
         };
         assert!(c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));
         assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.4, &s));
-    }
-
-    #[test]
-    fn shadowed_ground_blocks_even_near_the_rover() {
-        let c = ArcPlannerConfig::default();
-        let m = ObstacleMemory::new(&ObstacleConfig::default());
-        // every cell seen but a patch 0.6–0.9 m ahead, which nothing ever looked at
-        let mut seen = SeenGrid::new(0.25);
-        for i in -20..=60 {
-            for j in -20..=20 {
-                let (x, y) = (i as f64 * 0.1, j as f64 * 0.1);
-                if !((0.5..=1.0).contains(&x) && y.abs() <= 0.6) {
-                    seen.mark_disc_seen_from(x, y, 0.05, None);
-                }
-            }
-        }
-        let s = Scene {
-            seen: Some(&seen),
-            ..scene(&m)
-        };
-        let start = Pose2::new(0.0, 0.0, 0.0);
-        // within the exempt first metre: free
-        assert!(c.arc_is_free(start, 0.4, 0.0, &s));
-        // a camera 2 m behind looked at the patch and measured nothing there: blocked
-        let camera = Isometry3::translation(-1.5, 0.0, 0.25);
-        seen.mark_shadowed(&camera, [0.56, 0.33], 0.25, [1.2, 3.0]);
-        let s = Scene {
-            seen: Some(&seen),
-            ..scene(&m)
-        };
-        assert!(!c.arc_is_free(start, 0.4, 0.0, &s));
     }
 
     #[test]

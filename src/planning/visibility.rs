@@ -7,7 +7,6 @@
 //! frame that saw its ground is weaker evidence that the ground is clear than two.
 
 use crate::planning::Pose2;
-use nalgebra::{Isometry3, Point3};
 use rustc_hash::FxHashMap as HashMap;
 
 /// Cells on either side of the origin kept in the dense bitmap (±64 m at 0.25 m cells);
@@ -25,8 +24,6 @@ pub struct SeenGrid {
     dense: Vec<u8>,
     /// The last frame that counted for each dense cell.
     dense_frame: Vec<u32>,
-    /// Dense cells a camera looked at without measuring them ([`SeenGrid::mark_shadowed`]).
-    dense_shadow: Vec<bool>,
     /// Seen cells outside the dense window: frames and last frame.
     outside: HashMap<(i64, i64), (u8, u32)>,
     /// Frames a cell must have been seen in to count as seen.
@@ -56,7 +53,6 @@ impl SeenGrid {
             },
             dense: vec![0; cells],
             dense_frame: vec![0; cells],
-            dense_shadow: vec![false; cells],
             outside: HashMap::default(),
             min_views: min_views.max(1),
             frame: 1,
@@ -157,61 +153,6 @@ impl SeenGrid {
         }
     }
 
-    /// Mark as *shadowed* the unseen cells within `min_m`..`max_m` (horizontally) of a camera
-    /// (`session_from_camera`: x along the optical axis, y left, z up) whose ground, if it
-    /// lay `ground_below_camera_m` below the camera, would be inside its image
-    /// (`half_fov_rad` by `half_vertical_fov_rad`), yet this frame measured no ground point
-    /// near them: ground in a dip or behind a crest. Call after the frame's ground points.
-    pub fn mark_shadowed(
-        &mut self,
-        session_from_camera: &Isometry3<f64>,
-        [half_fov_rad, half_vertical_fov_rad]: [f64; 2],
-        ground_below_camera_m: f64,
-        [min_m, max_m]: [f64; 2],
-    ) {
-        let origin = session_from_camera.translation.vector;
-        if !(max_m > min_m && max_m <= 100.0) || !origin.iter().all(|v| v.is_finite()) {
-            return;
-        }
-        let camera_from_session = session_from_camera.inverse();
-        let (tan_h, tan_v) = (half_fov_rad.tan(), half_vertical_fov_rad.tan());
-        let z = origin.z - ground_below_camera_m;
-        let (lo, hi) = (
-            self.key(origin.x - max_m, origin.y - max_m),
-            self.key(origin.x + max_m, origin.y + max_m),
-        );
-        for i in lo.0..=hi.0 {
-            for j in lo.1..=hi.1 {
-                let (cx, cy) = (
-                    (i as f64 + 0.5) * self.cell_m,
-                    (j as f64 + 0.5) * self.cell_m,
-                );
-                let d = (cx - origin.x).hypot(cy - origin.y);
-                let Some(k) = self.dense_index((i, j)) else {
-                    continue;
-                };
-                if d < min_m || d > max_m || self.dense[k] > 0 {
-                    continue;
-                }
-                let p = camera_from_session * Point3::new(cx, cy, z);
-                if p.x > 0.0 && p.y.abs() <= tan_h * p.x && p.z.abs() <= tan_v * p.x {
-                    self.dense_shadow[k] = true;
-                }
-            }
-        }
-    }
-
-    /// Whether the cell holding (x, y) is shadowed ([`SeenGrid::mark_shadowed`]) and has not
-    /// been seen since.
-    pub fn is_shadowed(&self, x: f64, y: f64) -> bool {
-        if !x.is_finite() || !y.is_finite() {
-            return false;
-        }
-        let key = self.key(x, y);
-        self.dense_index(key)
-            .is_some_and(|k| self.dense_shadow[k] && !self.contains(key))
-    }
-
     /// Mark every cell within `radius_m` of (x, y) as known, whatever `min_views` asks (the
     /// ground under the rover).
     pub fn mark_disc(&mut self, x: f64, y: f64, radius_m: f64) {
@@ -281,25 +222,6 @@ mod tests {
         assert!(!g.is_seen(6.0, 0.0));
         g.mark_disc(0.0, 0.0, 0.5);
         assert!(g.is_seen(0.0, 0.3));
-    }
-
-    #[test]
-    fn ground_looked_at_but_not_measured_is_shadowed() {
-        let mut g = SeenGrid::new(0.25);
-        // ground points 1.2–1.5 m and 2.5–3 m ahead of a camera 0.25 m up: a dip between
-        for x in [1.25, 1.4, 2.6, 2.9] {
-            g.mark_disc_seen_from(x, 0.0, 0.2, None);
-        }
-        let camera = Isometry3::translation(0.0, 0.0, 0.25);
-        let fov = [0.56, 0.33];
-        g.mark_shadowed(&camera, fov, 0.25, [1.2, 3.0]);
-        assert!(g.is_shadowed(2.0, 0.0) && !g.is_seen(2.0, 0.0));
-        assert!(!g.is_shadowed(1.4, 0.0) && !g.is_shadowed(2.9, 0.0));
-        // beside the camera, beyond the range or nearer than it: not looked at
-        assert!(!g.is_shadowed(0.0, 2.0) && !g.is_shadowed(4.0, 0.0) && !g.is_shadowed(0.8, 0.0));
-        // seen later (from nearer, say): no longer shadowed
-        g.mark_disc_seen_from(2.0, 0.0, 0.2, None);
-        assert!(!g.is_shadowed(2.0, 0.0));
     }
 
     #[test]

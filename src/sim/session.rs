@@ -37,7 +37,7 @@ use crate::planning::visibility::SeenGrid;
 use crate::planning::waypoints::{waypoints, WaypointConfig};
 use crate::planning::Pose2;
 use crate::sim::ipex::{footprint_radius_m, LUNAR_GRAVITY_MPS2, SITE_HALF_EXTENT_M, TICK_S};
-use crate::sim::ipex::{BODY_ABOVE_GROUND_M, CX_PX, CY_PX, FOCAL_PX, FRONT_LEFT_CAMERA_M};
+use crate::sim::ipex::{CX_PX, CY_PX, FOCAL_PX};
 use crate::sim::moon::Moon;
 use crate::sim::rover::{Command, RoverConfig, RoverState};
 use crate::sim::sensors::{cameras, observe, observe_far, SensorConfig};
@@ -109,10 +109,6 @@ pub struct SessionConfig {
     /// at 2 and 3 over 60 seeds (BENCHMARKS.md, "Obstacle sizes from their sightings"): no
     /// fewer collisions, so 1.
     pub seen_ground_min_views: u8,
-    /// Unseen ground this far from a camera (metres, horizontally) that it looked at without
-    /// measuring (a dip, behind a crest) blocks arcs even in their exempt first metre.
-    /// [0, 0]: off.
-    pub shadow_range_m: [f64; 2],
     /// Waypoint pattern.
     pub waypoints: WaypointConfig,
 }
@@ -134,7 +130,6 @@ impl Default for SessionConfig {
             seen_ground_point_radius_m: 0.35,
             seen_ground_toward_camera_m: None,
             seen_ground_min_views: 1,
-            shadow_range_m: [0.0, 0.0],
             waypoints: WaypointConfig::default(),
         }
     }
@@ -416,16 +411,6 @@ impl<'a> SessionSim<'a> {
                         .map(|&(_, x, y)| (x, y, t))
                 });
                 self.seen.mark_disc_seen_from(p.x, p.y, seen_radius_m, from);
-            }
-        }
-        if self.config.shadow_range_m[1] > 0.0 {
-            let fov = [(CX_PX / FOCAL_PX).atan(), (CY_PX / FOCAL_PX).atan()].map(|a| a - 0.05);
-            let below = FRONT_LEFT_CAMERA_M[2] + BODY_ABOVE_GROUND_M;
-            for camera in cameras() {
-                let session_from_camera = est * camera.rover_from_camera;
-                let range = self.config.shadow_range_m;
-                self.seen
-                    .mark_shadowed(&session_from_camera, fov, below, range);
             }
         }
         for q in &obs.lander_points_rover {
