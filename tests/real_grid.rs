@@ -39,16 +39,16 @@ fn rock_map_from_all_17_traverses() {
         s.false_positives,
         s.false_negatives
     );
-    // measured 0.6458 with the lander's structure dropped (8 fewer false positives),
-    // 0.642 without it, 0.632 without the viewpoint bias either (the raw count of
-    // detections per cell reaches 0.577 at its best threshold, 0.325 when marking every
-    // cell with a detection)
-    assert!(s.rock_f1 >= 0.64, "F1 {}", s.rock_f1);
+    // measured 0.6531 counting only repeated hits (0.6458 with every hit, 0.642 without
+    // the lander's structure dropped, 0.632 without the viewpoint bias either; the raw
+    // count of detections per cell reaches 0.577 at its best threshold, 0.325 when marking
+    // every cell with a detection)
+    assert!(s.rock_f1 >= 0.65, "F1 {}", s.rock_f1);
     assert!(s.rock_precision >= 0.78, "precision {}", s.rock_precision);
     // the thresholds hold up on cells they were not tuned on
-    let rates: Vec<f64> = (1..=30).map(|k| 0.01 * k as f64).collect();
+    let rates: Vec<f64> = (1..=60).map(|k| 0.005 * k as f64).collect();
     let cv = cross_validate(&evidence, &truth, &[1, 2, 3], &rates, 4);
     eprintln!("4-sector cross-validated F1 {:.4}", cv.held_out.f1);
-    // measured 0.644
-    assert!(cv.held_out.f1 >= 0.635, "held-out F1 {}", cv.held_out.f1);
+    // measured 0.6476 (0.644 with every hit counting)
+    assert!(cv.held_out.f1 >= 0.64, "held-out F1 {}", cv.held_out.f1);
 }

@@ -63,6 +63,10 @@ pub enum GridCommand {
         /// The ground truth grid CSV.
         #[arg(long)]
         groundtruth: PathBuf,
+        /// Rock-evidence parameters (TOML of `RockEvidenceConfig`); defaults otherwise.
+        /// Everything but the two thresholds is taken from it.
+        #[arg(long, value_name = "FILE")]
+        evidence_config: Option<PathBuf>,
         /// Number of angular sectors.
         #[arg(long, default_value_t = 4)]
         folds: usize,
@@ -174,16 +178,17 @@ pub fn run(cmd: &GridCommand) -> Result<i32> {
         GridCommand::Tune {
             traverses,
             groundtruth,
+            evidence_config,
             folds,
             json,
         } => {
             anyhow::ensure!(*folds >= 2, "--folds must be at least 2");
             let truth = read_grid_csv(groundtruth)?;
             let loaded = read_traverses(traverses)?;
-            let config = RockEvidenceConfig::default();
+            let config = load_evidence_config(evidence_config.as_deref())?;
             let evidence = RockEvidence::from_traverses(&truth, &loaded, &config);
             let hits = [1, 2, 3, 4, 5];
-            let rates: Vec<f64> = (1..=40).map(|k| 0.01 * k as f64).collect();
+            let rates: Vec<f64> = (1..=80).map(|k| 0.005 * k as f64).collect();
             let cv = cross_validate(&evidence, &truth, &hits, &rates, *folds);
             let table = sensitivity(&evidence, &truth, &hits, &rates);
             let at_default = sensitivity(&evidence, &truth, &[config.min_hits], &[config.min_rate]);
@@ -207,13 +212,13 @@ pub fn run(cmd: &GridCommand) -> Result<i32> {
                 }
                 println!("sensitivity (F1 by min_hits, rows; min_rate, columns):");
                 print!("      ");
-                for r in rates.iter().step_by(2) {
+                for r in rates.iter().skip(3).step_by(4) {
                     print!(" {r:5.2}");
                 }
                 println!();
                 for &hh in &hits {
                     print!("  {hh:2}  ");
-                    for r in rates.iter().step_by(2) {
+                    for r in rates.iter().skip(3).step_by(4) {
                         let f = table
                             .iter()
                             .find(|t| t.min_hits == hh && t.min_rate == *r)

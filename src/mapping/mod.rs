@@ -18,13 +18,15 @@ pub mod raster;
 pub mod rock_evidence;
 pub mod rock_footprint;
 pub mod score;
+pub mod traverse_views;
 pub mod tune;
 
 pub use height_map::HeightMapBuilder;
 pub use lander_structure::LanderStructureConfig;
-pub use rock_evidence::{traverse_views, RockEvidence, RockEvidenceConfig};
+pub use rock_evidence::{RockEvidence, RockEvidenceConfig};
 pub use rock_footprint::{rock_grid, RockGridConfig};
 pub use score::{score, LacScore, ScoreError};
+pub use traverse_views::traverse_views;
 pub use tune::{cross_validate, sensitivity, CrossValidation, ThresholdResult};
 
 /// Every named value is a finite number above 0 (`positive`) or at least 0: the first one
