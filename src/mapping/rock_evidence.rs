@@ -36,7 +36,7 @@
 //! 0.644 → 0.648; BENCHMARKS.md).
 //!
 //! The heading and cadence of a LunarLoc traverse's detection frames come from
-//! [`traverse_views`](super::traverse_views).
+//! [`traverse_views`](mod@super::traverse_views).
 
 use super::check_numbers;
 use super::lander_structure::{lander_ground_from, LanderStructureConfig};
