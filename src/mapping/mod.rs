@@ -7,6 +7,8 @@
 //! - [`RockEvidence`] ([`rock_evidence`]): raw detections with the rover's views → cells
 //!   detected far more often than their exposure explains (the real-data rock map), less
 //!   the detections on the lander's own structure ([`lander_structure`]);
+//! - [`traverse_views()`] ([`mod@traverse_views`]): a LunarLoc traverse's detection frames,
+//!   with the heading the positions imply;
 //! - [`score()`] ([`mod@score`]): the LAC points of a grid against the ground truth;
 //! - [`pictures`]: PNGs of the height error, the rock map and trajectories, drawn with
 //!   the small rasteriser in [`raster`].
