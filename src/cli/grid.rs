@@ -25,10 +25,10 @@ pub enum GridCommand {
         /// Rock-evidence parameters (TOML of `RockEvidenceConfig`); defaults otherwise.
         #[arg(long, value_name = "FILE")]
         evidence_config: Option<PathBuf>,
-        /// Override the minimum detections per rock cell.
+        /// Override the minimum (repeated) detections per rock cell.
         #[arg(long)]
         min_hits: Option<u32>,
-        /// Override the minimum detections per unit of exposure.
+        /// Override the minimum (repeated) detections per unit of exposure.
         #[arg(long)]
         min_rate: Option<f64>,
         /// Print a JSON summary.
