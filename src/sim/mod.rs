@@ -17,6 +17,7 @@ pub mod moon;
 pub mod rover;
 pub mod sensors;
 pub mod session;
+pub mod session_config;
 pub mod session_log;
 pub mod stereo_noise;
 pub mod value_noise;
