@@ -43,7 +43,12 @@ pub struct ArcPlannerConfig {
     /// Lateral offset of the extra seen-ground checks beside each arc point, metres: the
     /// wheels' outer edges (0.27 m from the centre line) and a margin.
     pub unseen_check_offset_m: f64,
-    /// Arc points closer than this to the rover skip the seen-ground check, metres.
+    /// Arc points closer than this to the rover skip the seen-ground check, metres. 0 (the
+    /// default): none do. A disc that travels with the rover let it creep into ground no
+    /// camera saw, on the fan's tightest arcs, each wholly inside the disc (a rock hidden
+    /// behind a crest, then below the image); without it the ground taken on trust is the
+    /// session's start ([`crate::sim::session::SessionConfig::start_clear_radius_m`]) and
+    /// the footprint the rover stood on.
     pub known_radius_m: f64,
     /// When no arc is free over `horizon_s`, halve the horizon (down to this, seconds) and
     /// look again: in a narrow gap (between the lander and a rock, say) every 3.6 m arc
@@ -69,7 +74,7 @@ impl Default for ArcPlannerConfig {
             body_clearance_m: 0.65,
             site_half_extent_m: 19.0,
             unseen_check_offset_m: 0.4,
-            known_radius_m: 1.0,
+            known_radius_m: 0.0,
             min_horizon_s: 8.0,
             fallback_slows_down: true,
         }
@@ -431,12 +436,35 @@ mod tests {
         let m = ObstacleMemory::new(&ObstacleConfig::default());
         let mut seen = SeenGrid::new(0.25);
         seen.mark_view(Pose2::new(0.0, 0.0, 0.0), 0.6, 0.0, 6.0);
+        // the rover's start (as the session marks it)
+        seen.mark_disc(0.0, 0.0, 1.0);
         let s = Scene {
             seen: Some(&seen),
             ..scene(&m)
         };
         assert!(c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.0, &s));
         assert!(!c.arc_is_free(Pose2::new(0.0, 0.0, 0.0), 0.4, 0.4, &s));
+    }
+
+    #[test]
+    fn tight_arcs_do_not_creep_into_unseen_ground() {
+        // ground seen up to x = 2 m only; the rover stands at x = 1.8 m facing +x
+        let m = ObstacleMemory::new(&ObstacleConfig::default());
+        let mut seen = SeenGrid::new(0.25);
+        seen.mark_view(Pose2::new(-4.0, 0.0, 0.0), 0.6, 0.0, 6.0);
+        seen.mark_disc(1.8, 0.0, 0.46);
+        let s = Scene {
+            seen: Some(&seen),
+            ..scene(&m)
+        };
+        let here = Pose2::new(1.8, 0.0, 0.0);
+        // the tightest arc at the fallback speed stays within 0.6 m of the rover
+        let exempt = ArcPlannerConfig {
+            known_radius_m: 1.0,
+            ..ArcPlannerConfig::default()
+        };
+        assert!(exempt.arc_is_free(here, 0.225, 0.8, &s));
+        assert!(!ArcPlannerConfig::default().arc_is_free(here, 0.225, 0.8, &s));
     }
 
     #[test]

@@ -61,6 +61,20 @@ impl WaypointConfig {
     }
 }
 
+impl WaypointConfig {
+    /// Session 2's loops: half-sides 9.5 and 12.5 m, where session 1's coverage loops
+    /// (3.5, 8 and 12.5 m) leave the most unmapped, and the 12.5 m loop overlaps session 1's
+    /// outer one for loop closures.
+    pub fn outer_loops() -> Self {
+        Self {
+            pattern: Pattern::NestedLoops,
+            first_loop_half_side_m: 9.5,
+            ring_spacing_m: 3.0,
+            ..Self::default()
+        }
+    }
+}
+
 /// The point at perimeter parameter `t` ∈ [0, 1) of the square of half-side `h`, starting
 /// at angle `start_rad` (the square's boundary point in that direction) and going round.
 fn square_point(h: f64, t: f64, start_rad: f64, ccw: bool) -> Vector2<f64> {
