@@ -191,7 +191,8 @@ pub struct MissionConfig {
 
 impl Default for MissionConfig {
     /// Session 1 maps the site on the LAC coverage loops for 600 s; session 2 drives loops
-    /// at 9.5 and 12.5 m for 300 s, the ground session 1 rarely reaches: on seeds 1–160 it
+    /// from 9.5 m out ([`outer_loops`](crate::planning::waypoints::WaypointConfig::outer_loops)) for 300 s, the ground session 1
+    /// rarely reaches: on seeds 1–160 it
     /// lifts the seeds with geometric ≥ 285 from 139 to 156 and rocks ≥ 270 from 97 to
     /// 147 against session 2 on the spiral around the lander, where session 1's map is
     /// densest, at twice the session-2 error (median 1.1 cm against 0.6 cm; BENCHMARKS.md,
@@ -287,8 +288,8 @@ fn coverage_session() -> SessionConfig {
 /// [`crate::planning::arc_planner::ArcPlannerConfig::min_horizon_s`]).
 const MISSION_MIN_ARC_HORIZON_S: f64 = 2.0;
 
-/// Session settings of session 2 by default: loops at 9.5 and 12.5 m, outside the
-/// ring session 1 covers best.
+/// Session settings of session 2 by default: loops from 9.5 m out, outside the ring
+/// session 1 covers best.
 fn outer_loops_session() -> SessionConfig {
     let mut session = spiral_session();
     session.waypoints = crate::planning::waypoints::WaypointConfig::outer_loops();

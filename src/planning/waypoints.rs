@@ -62,9 +62,9 @@ impl WaypointConfig {
 }
 
 impl WaypointConfig {
-    /// Session 2's loops: half-sides 9.5 and 12.5 m, where session 1's coverage loops
-    /// (3.5, 8 and 12.5 m) leave the most unmapped, and the 12.5 m loop overlaps session 1's
-    /// outer one for loop closures.
+    /// Session 2's loops: half-side 9.5 m, where session 1's coverage loops (3.5, 8 and
+    /// 12.5 m) leave the most unmapped, then 12.5 m (over session 1's outer one) and the
+    /// site's edge, 13.5 m; in 300 s session 2 drives about the first.
     pub fn outer_loops() -> Self {
         Self {
             pattern: Pattern::NestedLoops,
@@ -165,5 +165,21 @@ mod tests {
         }
         // within the grid (±13.5 m) with a margin for the rover's clearance
         assert!(rings.iter().all(|h| *h <= 13.5 - 0.75));
+    }
+
+    #[test]
+    fn session_two_loops_lie_outside_session_one_s_middle_ring() {
+        // 9.5 m, 12.5 m, then the site's edge (the pattern's 13.5 m bound); in 300 s
+        // session 2 drives about the first
+        let w = waypoints(&WaypointConfig::outer_loops(), Vector2::new(-4.5, 0.0));
+        let r = |p: &Vector2<f64>| p.x.abs().max(p.y.abs());
+        let rings = [9.5, 12.5, 13.5];
+        for h in rings {
+            assert!(w.iter().any(|p| (r(p) - h).abs() < 1e-9), "no ring at {h}");
+        }
+        assert!(w
+            .iter()
+            .all(|p| rings.iter().any(|h| (r(p) - h).abs() < 1e-9)));
+        assert!((r(&w[0]) - 9.5).abs() < 1e-9);
     }
 }
