@@ -356,14 +356,26 @@ impl RockEvidence {
         self.rate_of(self.repeated_hits(k), k)
     }
 
+    /// The repeated detections of every cell ([`RockEvidence::repeated_hits`]), at
+    /// [`LacGrid::index`]: computed once for testing many thresholds.
+    pub fn repeated_counts(&self) -> Vec<f64> {
+        (0..self.hits.len())
+            .map(|k| self.repeated_hits(k))
+            .collect()
+    }
+
     /// Whether cell `k` is a rock under `min_hits` and `min_rate` (both of its repeated
     /// detections).
     pub fn is_rock(&self, k: usize, min_hits: u32, min_rate: f64) -> bool {
-        if self.hits[k] < min_hits as f64 {
-            return false;
-        }
-        let hits = self.repeated_hits(k);
-        hits >= min_hits as f64 && self.rate_of(hits, k) >= min_rate
+        // repeated hits are at most the hits: skip the median when the hits fall short
+        self.hits[k] >= min_hits as f64
+            && self.is_rock_with(k, self.repeated_hits(k), min_hits, min_rate)
+    }
+
+    /// [`RockEvidence::is_rock`] with cell `k`'s repeated detections given (from
+    /// [`RockEvidence::repeated_counts`]).
+    pub fn is_rock_with(&self, k: usize, repeated: f64, min_hits: u32, min_rate: f64) -> bool {
+        repeated >= min_hits as f64 && self.rate_of(repeated, k) >= min_rate
     }
 
     fn rate_of(&self, hits: f64, k: usize) -> f64 {
@@ -385,8 +397,8 @@ impl RockEvidence {
     /// The rock grid under other thresholds (for tuning).
     pub fn rock_grid_with(&self, min_hits: u32, min_rate: f64) -> LacGrid {
         let mut grid = self.geometry.clone();
-        for k in 0..grid.num_cells() {
-            grid.rock[k] = self.is_rock(k, min_hits, min_rate);
+        for (k, repeated) in self.repeated_counts().into_iter().enumerate() {
+            grid.rock[k] = self.is_rock_with(k, repeated, min_hits, min_rate);
         }
         grid
     }

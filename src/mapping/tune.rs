@@ -44,17 +44,21 @@ pub struct CrossValidation {
 
 fn counts(
     evidence: &RockEvidence,
+    repeated: &[f64],
     truth: &LacGrid,
     min_hits: u32,
     min_rate: f64,
     keep: impl Fn(usize) -> bool,
 ) -> (usize, usize, usize) {
     let (mut tp, mut fp, mut fn_) = (0, 0, 0);
-    for k in 0..truth.num_cells().min(evidence.hits.len()) {
+    for (k, (&repeated, &truth_rock)) in repeated.iter().zip(&truth.rock).enumerate() {
         if !keep(k) {
             continue;
         }
-        match (evidence.is_rock(k, min_hits, min_rate), truth.rock[k]) {
+        match (
+            evidence.is_rock_with(k, repeated, min_hits, min_rate),
+            truth_rock,
+        ) {
             (true, true) => tp += 1,
             (true, false) => fp += 1,
             (false, true) => fn_ += 1,
@@ -85,10 +89,15 @@ pub fn sensitivity(
     hits: &[u32],
     rates: &[f64],
 ) -> Vec<ThresholdResult> {
+    let repeated = evidence.repeated_counts();
     let mut out = Vec::new();
     for &h in hits {
         for &r in rates {
-            out.push(result(h, r, counts(evidence, truth, h, r, |_| true)));
+            out.push(result(
+                h,
+                r,
+                counts(evidence, &repeated, truth, h, r, |_| true),
+            ));
         }
     }
     out
@@ -111,6 +120,7 @@ pub fn cross_validate(
     folds: usize,
 ) -> CrossValidation {
     let folds = folds.max(2);
+    let repeated = evidence.repeated_counts();
     let sectors: Vec<usize> = (0..truth.num_cells())
         .map(|k| sector(truth, k, folds))
         .collect();
@@ -120,7 +130,7 @@ pub fn cross_validate(
         let mut best: Option<(f64, u32, f64)> = None;
         for &h in hits {
             for &r in rates {
-                let c = counts(evidence, truth, h, r, |k| sectors[k] != f);
+                let c = counts(evidence, &repeated, truth, h, r, |k| sectors[k] != f);
                 let f1 = result(h, r, c).f1;
                 if best.is_none_or(|(b, _, _)| f1 > b) {
                     best = Some((f1, h, r));
@@ -131,7 +141,7 @@ pub fn cross_validate(
             continue;
         };
         chosen.push((h, r));
-        let c = counts(evidence, truth, h, r, |k| sectors[k] == f);
+        let c = counts(evidence, &repeated, truth, h, r, |k| sectors[k] == f);
         pooled = (pooled.0 + c.0, pooled.1 + c.1, pooled.2 + c.2);
     }
     let (h0, r0) = chosen.first().copied().unwrap_or((0, 0.0));
