@@ -191,12 +191,13 @@ pub struct MissionConfig {
 
 impl Default for MissionConfig {
     /// Session 1 maps the site on the LAC coverage loops for 600 s; session 2 drives loops
-    /// from 9.5 m out ([`outer_loops`](crate::planning::waypoints::WaypointConfig::outer_loops)) for 300 s, the ground session 1
-    /// rarely reaches: on seeds 1–160 it
-    /// lifts the seeds with geometric ≥ 285 from 139 to 156 and rocks ≥ 270 from 97 to
-    /// 147 against session 2 on the spiral around the lander, where session 1's map is
-    /// densest, at twice the session-2 error (median 1.1 cm against 0.6 cm; BENCHMARKS.md,
-    /// "Session 2's waypoints").
+    /// from 9.5 m out ([`WaypointConfig::outer_loops`]) for 300 s, the ground session 1
+    /// rarely reaches: on seeds 1–160 it lifts the seeds with geometric ≥ 285 from 139 to
+    /// 156 and rocks ≥ 270 from 97 to 147 against session 2 on the spiral around the
+    /// lander, where session 1's map is densest, at twice the session-2 error (median
+    /// 1.1 cm against 0.6 cm; BENCHMARKS.md, "Session 2's waypoints").
+    ///
+    /// [`WaypointConfig::outer_loops`]: crate::planning::waypoints::WaypointConfig::outer_loops
     fn default() -> Self {
         Self {
             seconds_per_session: 600.0,

@@ -59,9 +59,7 @@ impl WaypointConfig {
             ..Self::default()
         }
     }
-}
 
-impl WaypointConfig {
     /// Session 2's loops: half-side 9.5 m, where session 1's coverage loops (3.5, 8 and
     /// 12.5 m) leave the most unmapped, then 12.5 m (over session 1's outer one) and the
     /// site's edge, 13.5 m; in 300 s session 2 drives about the first.
