@@ -5,6 +5,10 @@
 //!
 //! * unary (prior):  `r = Log(Z⁻¹ · X)`
 //! * binary (between, relocalization): `r = Log(Z⁻¹ · A⁻¹ · B)`
+//! * point observation: a landmark `l` (a [`VarKey::Point`]) measured at `z` in the frame of
+//!   pose `X = (R, t)`: `r = (ε · Log(R_l), Rᵀ (l − t) − z)`, whose information is the 3 × 3
+//!   translation block (the rotation block is the identity and only holds the landmark's
+//!   meaningless rotation, with the small weight `ε` = [`POINT_ROTATION_HOLD`]);
 //!
 //! Jacobians are taken with respect to right perturbations `X ← X · Exp(δ)`:
 //! `∂r/∂δ_B = J_r⁻¹(r)` and `∂r/∂δ_A = −J_r⁻¹(r) · Ad(B⁻¹ A)`; for a prior
@@ -43,7 +47,20 @@ pub enum FactorKind {
         /// Prior map frame variable (`world_from_prior`).
         frame: VarKey,
     },
+    /// A landmark seen from a pose: the measured point is the translation of the factor's
+    /// measurement, in the pose's (rover) frame; residual `Rᵀ (l − t) − z` (and the
+    /// landmark's rotation held at the identity, see the module's notes).
+    Point {
+        /// Rover pose variable (`world_from_rover`).
+        pose: VarKey,
+        /// Landmark variable ([`VarKey::Point`]).
+        point: VarKey,
+    },
 }
+
+/// Weight `ε` of the term of a point observation that holds its landmark's rotation (which
+/// nothing else constrains) at the identity.
+pub const POINT_ROTATION_HOLD: f64 = 1e-3;
 
 /// One factor: measurement, information matrix (rotation, translation order) and kernel.
 #[derive(Clone, Debug)]
@@ -157,7 +174,69 @@ impl Factor {
 
     /// Residual `r` at the given estimate.
     pub fn residual(&self, poses: &[Isometry3<f64>]) -> Vector6<f64> {
+        if self.is_point() {
+            return self.point_linearization(poses).residual;
+        }
         se3::log(&(self.measured_inv * self.predicted(poses)))
+    }
+
+    /// True for a point observation.
+    fn is_point(&self) -> bool {
+        matches!(self.kind, FactorKind::Point { .. })
+    }
+
+    /// Residual and Jacobians of a point observation (see the module's notes): with
+    /// `q = Rᵀ (l − t)`, `∂e/∂ω = [q]×`, `∂e/∂ν = −I` for the pose's right perturbation and
+    /// `∂e/∂ν_l = Rᵀ R_l` for the landmark's.
+    fn point_linearization(&self, poses: &[Isometry3<f64>]) -> Linearization {
+        let (pose, point) = (&poses[self.vars[0]], &poses[self.vars[1]]);
+        let r_t = pose.rotation.inverse();
+        let q = r_t * (point.translation.vector - pose.translation.vector);
+        let e = q - self.measured.translation.vector;
+        let hold = se3::log(&Isometry3::from_parts(
+            nalgebra::Translation3::identity(),
+            point.rotation,
+        ));
+        let mut residual = Vector6::zeros();
+        residual
+            .fixed_rows_mut::<3>(0)
+            .copy_from(&(hold.fixed_rows::<3>(0) * POINT_ROTATION_HOLD));
+        residual.fixed_rows_mut::<3>(3).copy_from(&e);
+        let mut jac_a = Matrix6::zeros();
+        jac_a.fixed_view_mut::<3, 3>(3, 0).copy_from(&se3::hat(&q));
+        jac_a
+            .fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(-nalgebra::Matrix3::identity()));
+        let mut jac_b = Matrix6::zeros();
+        let hold_jacobian = se3::right_jacobian_inverse(&hold);
+        jac_b
+            .fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(hold_jacobian.fixed_view::<3, 3>(0, 0) * POINT_ROTATION_HOLD));
+        jac_b
+            .fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(r_t * point.rotation).to_rotation_matrix().into_inner());
+        Linearization {
+            residual,
+            jac_a,
+            jac_b,
+        }
+    }
+
+    /// Cost and normal-equation blocks from a linearization (any binary factor).
+    fn blocks_of(&self, lin: &Linearization, mu: f64) -> (f64, FactorBlocks<6>) {
+        let s = self.mahalanobis2(&lin.residual);
+        let cost = 0.5 * self.kernel.rho(s, mu);
+        let w_info = self.information * self.kernel.weight(s, mu);
+        let jt_wa = lin.jac_a.transpose() * w_info;
+        let jt_wb = lin.jac_b.transpose() * w_info;
+        let blocks = FactorBlocks {
+            haa: jt_wa * lin.jac_a,
+            hab: jt_wa * lin.jac_b,
+            hbb: jt_wb * lin.jac_b,
+            ga: jt_wa * lin.residual,
+            gb: jt_wb * lin.residual,
+        };
+        (cost, blocks)
     }
 
     /// Squared Mahalanobis distance `s = rᵀ Ω r`.
@@ -181,6 +260,9 @@ impl Factor {
         poses: &[Isometry3<f64>],
         mu: f64,
     ) -> (f64, FactorBlocks<6>) {
+        if self.is_point() {
+            return self.blocks_of(&self.point_linearization(poses), mu);
+        }
         let between = self.predicted(poses);
         let residual = se3::log(&(self.measured_inv * between));
         let s = self.mahalanobis2(&residual);
@@ -221,6 +303,10 @@ impl Factor {
         poses: &[Isometry3<f64>],
         mu: f64,
     ) -> (f64, Vector6<f64>, Vector6<f64>) {
+        if self.is_point() {
+            let (cost, blocks) = self.blocks_of(&self.point_linearization(poses), mu);
+            return (cost, blocks.ga, blocks.gb);
+        }
         let between = self.predicted(poses);
         let residual = se3::log(&(self.measured_inv * between));
         let s = self.mahalanobis2(&residual);
@@ -236,6 +322,9 @@ impl Factor {
 
     /// Residual and Jacobians at the given estimate.
     pub(crate) fn linearize(&self, poses: &[Isometry3<f64>]) -> Linearization {
+        if self.is_point() {
+            return self.point_linearization(poses);
+        }
         let between = self.predicted(poses);
         let residual = se3::log(&(self.measured_inv * between));
         let jr_inv = se3::right_jacobian_inverse(&residual);
@@ -264,6 +353,7 @@ pub(crate) fn describe(kind: &FactorKind) -> String {
         FactorKind::Relocalization { pose, frame } => {
             format!("relocalization of {pose} in {frame}")
         }
+        FactorKind::Point { pose, point } => format!("observation of {point} from {pose}"),
     }
 }
 
@@ -355,6 +445,13 @@ mod tests {
                     var: VarKey::Pose(0),
                 },
                 true,
+            ),
+            (
+                FactorKind::Point {
+                    pose: VarKey::Pose(0),
+                    point: VarKey::Point(0),
+                },
+                false,
             ),
         ]
     }

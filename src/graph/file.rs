@@ -378,7 +378,7 @@ impl GraphFile {
                         fixed.push(id);
                     }
                 }
-                VarKey::Frame(_) => {
+                VarKey::Frame(_) | VarKey::Point(_) => {
                     return Err(GraphError::Unrepresentable {
                         what: key.to_string(),
                         format: format.name(),

@@ -1,5 +1,5 @@
-//! SE(3) pose graph: rover poses and map-frame variables tied by odometry, loop-closure,
-//! prior and relocalization factors, optimised by Levenberg–Marquardt (or Gauss–Newton) on
+//! SE(3) pose graph: rover poses, map-frame variables and landmark points tied by
+//! odometry, loop-closure, prior, relocalization and point-observation factors, optimised by Levenberg–Marquardt (or Gauss–Newton) on
 //! the Lie group with a sparse Cholesky factorisation from `faer`.
 //!
 //! # Conventions
@@ -91,6 +91,9 @@ pub enum VarKey {
     Pose(u64),
     /// Prior map or session frame `world_from_prior` with the given id.
     Frame(u64),
+    /// A landmark's position `p_world` (the translation of its stored isometry; the
+    /// rotation means nothing and stays at the identity), with its own ids.
+    Point(u64),
 }
 
 impl fmt::Display for VarKey {
@@ -98,6 +101,7 @@ impl fmt::Display for VarKey {
         match self {
             VarKey::Pose(id) => write!(f, "pose {id}"),
             VarKey::Frame(id) => write!(f, "frame {id}"),
+            VarKey::Point(id) => write!(f, "point {id}"),
         }
     }
 }

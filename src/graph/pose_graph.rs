@@ -5,7 +5,7 @@ use super::robust::RobustKernel;
 use super::solver::{self, OptimizationReport, SolverConfig};
 use super::structure::NormalEquations;
 use super::{ComponentInfo, GraphError, VarKey};
-use nalgebra::{Isometry3, Matrix6};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion};
 use std::collections::HashMap;
 
 /// An SE(3) pose graph: rover poses, prior-map frames and the factors between them.
@@ -156,6 +156,73 @@ impl PoseGraph {
         self.factors.push(f);
         self.structure_version += 1;
         Ok(self.factors.len() - 1)
+    }
+
+    /// Adds a landmark point `p_world` ([`VarKey::Point`]) with its initial estimate.
+    pub fn add_point(&mut self, id: u64, p_world: Point3<f64>) -> Result<(), GraphError> {
+        self.add_variable(
+            VarKey::Point(id),
+            Isometry3::from_parts(
+                Translation3::from(p_world.coords),
+                UnitQuaternion::identity(),
+            ),
+        )
+    }
+
+    /// Current estimate of landmark point `id`.
+    pub fn point(&self, id: u64) -> Option<Point3<f64>> {
+        self.value(VarKey::Point(id))
+            .map(|p| Point3::from(p.translation.vector))
+    }
+
+    /// Adds an observation of landmark `point_id` from pose `pose_id`: `p_rover` measured in
+    /// the rover frame with the 3 × 3 `information` (m⁻², rover axes); residual
+    /// `Rᵀ (l − t) − p_rover` for the pose `(R, t)` and the landmark `l`. Returns the factor
+    /// index.
+    ///
+    /// ```
+    /// use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+    /// use segloc::graph::{PoseGraph, RobustKernel, SolverConfig};
+    ///
+    /// // two poses 1 m apart see the same boulder; the second pose is found from it
+    /// let mut graph = PoseGraph::new();
+    /// graph.add_pose(0, Isometry3::identity())?;
+    /// graph.add_pose(1, Isometry3::translation(0.9, 0.1, 0.0))?;
+    /// graph.fix(0)?;
+    /// graph.add_point(0, Point3::new(3.0, 0.0, 0.0))?;
+    /// let info = Matrix3::identity() * 1e4;
+    /// let kernel = RobustKernel::None;
+    /// graph.add_point_observation(0, 0, Point3::new(3.0, 1.0, 0.0), info, kernel)?;
+    /// graph.add_point(1, Point3::new(0.0, 2.0, 0.5))?;
+    /// graph.add_point_observation(0, 1, Point3::new(0.0, 2.0, 0.5), info, kernel)?;
+    /// graph.add_point(2, Point3::new(5.0, -2.0, 0.0))?;
+    /// graph.add_point_observation(0, 2, Point3::new(5.0, -2.0, 0.0), info, kernel)?;
+    /// for (id, p) in [(0, [2.0, 1.0, 0.0]), (1, [-1.0, 2.0, 0.5]), (2, [4.0, -2.0, 0.0])] {
+    ///     graph.add_point_observation(1, id, Point3::from(p), info, kernel)?;
+    /// }
+    /// graph.optimize(&SolverConfig::default())?;
+    /// let moved = graph.pose(1).unwrap().translation.vector - Vector3::new(1.0, 0.0, 0.0);
+    /// assert!(moved.norm() < 1e-6);
+    /// # Ok::<(), segloc::graph::GraphError>(())
+    /// ```
+    pub fn add_point_observation(
+        &mut self,
+        pose_id: u64,
+        point_id: u64,
+        p_rover: Point3<f64>,
+        information: Matrix3<f64>,
+        kernel: RobustKernel,
+    ) -> Result<usize, GraphError> {
+        let pose = VarKey::Pose(pose_id);
+        let point = VarKey::Point(point_id);
+        let mut info6 = Matrix6::identity();
+        info6.fixed_view_mut::<3, 3>(3, 3).copy_from(&information);
+        let z = Isometry3::from_parts(
+            Translation3::from(p_rover.coords),
+            UnitQuaternion::identity(),
+        );
+        let kind = FactorKind::Point { pose, point };
+        self.push_binary(kind, pose, point, z, info6, kernel)
     }
 
     /// Adds a relocalization of pose `pose_id` in the prior map whose frame variable is
