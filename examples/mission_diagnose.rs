@@ -115,7 +115,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let s2 = lost_session::localize_session(
         &moon,
         &config,
-        &relocalizer,
+        lost_session::PriorSession {
+            relocalizer: &relocalizer,
+            map: &s1.map,
+        },
         start_2,
         guess_2,
         seed * 2 + 1,
@@ -215,6 +218,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         )
                     })
                     .collect();
+                let s1_seen = s1
+                    .log
+                    .frames
+                    .iter()
+                    .flat_map(|f| f.boulders.iter())
+                    .filter(|b| b.rock == Some(i))
+                    .count();
+                let in_map = s1
+                    .map
+                    .landmarks
+                    .iter()
+                    .filter(|l| {
+                        (l.position.x - rock.center.x).hypot(l.position.y - rock.center.y) < 0.2
+                    })
+                    .map(|l| format!("obs {} size {:?}", l.observations, l.size_m))
+                    .collect::<Vec<_>>();
+                eprintln!("  session 1 detections of it: {s1_seen}, in its map: {in_map:?}");
                 eprintln!(
                     "session {n} t {:.1} rock {i} r {:.3} top above ground {:.3} mode {:?} seen {:?}",
                     t.time_s, rock.radius_m, rock.center.z + rock.radius_m - ground, t.mode, seen

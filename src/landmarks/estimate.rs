@@ -86,7 +86,7 @@ fn median_landmark(detections: &[&Detection], id: u32) -> Landmark {
 /// The information matrix of one detection seen from `rover` (m⁻²): depth along the line
 /// of sight, the lateral error across it (`config.stereo`, with the range for the depth),
 /// the pose error (`config.pose_sigma_m`) in every direction.
-fn detection_information(
+pub fn detection_information(
     p: &Point3<f64>,
     rover: &Point3<f64>,
     config: &FusionConfig,

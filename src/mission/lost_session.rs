@@ -2,6 +2,7 @@
 //! relocalize a submap of the recent detections (odometry frame) against session 1's map,
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
+use super::boulder_adjustment::{adjust_in_place, BoulderAdjustmentReport};
 use super::fix_gate::{agrees, Tolerance};
 use super::lander_factor::{add_lander_factors, add_lander_factors_optimized};
 use super::odometry_bias::OdometryBias;
@@ -15,7 +16,8 @@ use crate::landmarks::{fuse_detections, FusionConfig};
 use crate::relocalize::Relocalizer;
 use crate::sim::moon::Moon;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Point2};
+use segloc_maps::ObjectMap;
 
 /// What session 2 produced.
 pub struct LocalizedSession {
@@ -30,14 +32,43 @@ pub struct LocalizedSession {
     /// Position RMSE of the pose graph's poses (before the mission's terrain height
     /// alignment changes `poses`), metres.
     pub rmse_graph_m: f64,
+    /// What the boulder adjustment did (`None`: off).
+    pub adjustment: Option<BoulderAdjustmentReport>,
+    /// Position RMSE of the pose graph's poses before the boulder adjustment, metres.
+    pub rmse_before_adjustment_m: f64,
+}
+
+/// The rocks of `prior_map` the planner should know of from its first relocalization on:
+/// boulders of known size seen at least `prior_obstacle_min_observations` times, as
+/// (centre x, y; radius) in the map's (world) frame.
+pub fn known_rocks(prior_map: &ObjectMap, config: &MissionConfig) -> Vec<(Point2<f64>, f64)> {
+    prior_map
+        .landmarks
+        .iter()
+        .filter(|l| l.observations >= config.prior_obstacle_min_observations)
+        .filter_map(|l| {
+            let size = l.size_m?;
+            Some((Point2::new(l.position.x, l.position.y), 0.5 * size))
+        })
+        .collect()
+}
+
+/// What session 2 knows of session 1.
+#[derive(Clone, Copy)]
+pub struct PriorSession<'a> {
+    /// Session 1's map, prepared for relocalization.
+    pub relocalizer: &'a Relocalizer,
+    /// Session 1's map, whose rocks the planner avoids once it knows where it is (with
+    /// `prior_map_obstacles`).
+    pub map: &'a ObjectMap,
 }
 
 /// Run session 2 from `start`, believing it starts at `guess`, relocalizing against
-/// `relocalizer` (session 1's map).
+/// session 1's map (`prior`).
 pub fn localize_session(
     moon: &Moon,
     config: &MissionConfig,
-    relocalizer: &Relocalizer,
+    prior: PriorSession,
     start: [f64; 3],
     guess: [f64; 3],
     seed: u64,
@@ -50,6 +81,9 @@ pub fn localize_session(
         ..config.session_2().clone()
     };
     let mut sim = SessionSim::new(moon, &session, seed)?;
+    if config.prior_map_obstacles {
+        sim.set_known_rocks_world(known_rocks(prior.map, config));
+    }
     let mut graph = TrajectoryGraph::new();
     let mut attempts = Vec::new();
     let mut next_attempt_s = config.relocalize_period_s;
@@ -71,7 +105,7 @@ pub fn localize_session(
         }
         next_attempt_s += config.relocalize_period_s;
         graph.extend(log, config)?;
-        let candidate = attempt(log, config, relocalizer, &graph, &mut attempts)?;
+        let candidate = attempt(log, config, prior.relocalizer, &graph, &mut attempts)?;
         let confirmed = candidate.map_or_else(Vec::new, |c| gate.admit(c, &graph, config));
         let mut changed = !confirmed.is_empty();
         for c in confirmed {
@@ -117,6 +151,8 @@ pub fn localize_session(
     if config.calibrate_odometry && graph.num_fixes() > 0 {
         graph.calibrate(config, config.calibration_rounds)?;
     }
+    let rmse_before_adjustment_m = super::trajectory::rmse_m(&log, &graph.poses_in_prior());
+    let adjustment = adjust_in_place(&mut graph, &log, &config.fusion, &config.boulder_adjustment)?;
     let poses = graph.poses_in_prior();
     let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(LocalizedSession {
@@ -125,6 +161,8 @@ pub fn localize_session(
         attempts,
         odometry_bias: graph.bias,
         rmse_graph_m,
+        adjustment,
+        rmse_before_adjustment_m,
     })
 }
 

@@ -2,6 +2,7 @@
 //! relocalizes against (in the optimised session frame, which is the world frame up to
 //! drift since the start is known).
 
+use super::boulder_adjustment::{adjust_in_place, BoulderAdjustmentReport};
 use super::fix_gate::{agrees, Tolerance};
 use super::lander_factor::add_lander_factors_optimized;
 use super::odometry_bias::OdometryBias;
@@ -40,6 +41,10 @@ pub struct MappedSession {
     /// Position RMSE of the pose graph's poses (before the mission's terrain height
     /// alignment changes `poses`), metres.
     pub rmse_graph_m: f64,
+    /// What the boulder adjustment did (`None`: off).
+    pub adjustment: Option<BoulderAdjustmentReport>,
+    /// Position RMSE of the pose graph's poses before the boulder adjustment, metres.
+    pub rmse_before_adjustment_m: f64,
     /// The viewpoint-bias calibration at the end of the session (the map was fused with
     /// its estimate; later sessions and the maps use it too).
     pub view_bias: ViewBiasCalibration,
@@ -122,8 +127,10 @@ pub fn map_session(
         attempts = loop_closures(&log, config, &mut graph, &mut fixed)?;
         graph.optimize()?;
     }
-    let poses = graph.poses_in_prior();
     let fusion = view_bias.fusion(&config.fusion);
+    let rmse_before_adjustment_m = super::trajectory::rmse_m(&log, &graph.poses_in_prior());
+    let adjustment = adjust_in_place(&mut graph, &log, &fusion, &config.boulder_adjustment)?;
+    let poses = graph.poses_in_prior();
     let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
     let map = fuse_detections(&set, &fusion);
     let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
@@ -134,6 +141,8 @@ pub fn map_session(
         attempts,
         odometry_bias: graph.bias,
         rmse_graph_m,
+        adjustment,
+        rmse_before_adjustment_m,
         view_bias,
     })
 }

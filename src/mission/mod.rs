@@ -9,6 +9,7 @@
 //!   recent detections against session 1's map, relocalization factors, re-optimise, tell
 //!   the planner;
 //! - [`trajectory`]: the per-session pose graph and trajectory error;
+//! - [`boulder_adjustment`]: each session's poses and boulders adjusted together at its end;
 //! - [`lander_factor`]: absolute pose factors from the points measured on the lander;
 //! - [`gravity`]: roll and pitch factors from the IMU's gravity direction;
 //! - [`terrain_height`]: the trajectories' heights aligned on the ground both sessions saw;
@@ -24,6 +25,7 @@
 //! println!("{}", serde_json::to_string(&report.report).unwrap());
 //! ```
 
+pub mod boulder_adjustment;
 pub mod fix_gate;
 pub mod gravity;
 pub mod lander_factor;
@@ -111,6 +113,13 @@ pub struct MissionConfig {
     /// centimetre the near views of a bent submap outweighed the rest and one seed in 20
     /// accepted a relocalization 1.4° off (BENCHMARKS.md).
     pub lost_submap_pose_sigma_m: f64,
+    /// Session 2's planner avoids the rocks of session 1's map from its first accepted
+    /// relocalization on, placed with its latest estimate of where it is, whether or not
+    /// its own cameras see them (a rock hidden behind a crest and then below the image is
+    /// still known).
+    pub prior_map_obstacles: bool,
+    /// … rocks of session 1's map seen at least this many times.
+    pub prior_obstacle_min_observations: u32,
     /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
     pub loop_closures: bool,
     /// Session 1 also closes its loops while it drives, and its planner works in the
@@ -187,6 +196,9 @@ pub struct MissionConfig {
     pub rock_grid: RockGridConfig,
     /// Terrain-relative height alignment of both sessions' poses before the maps.
     pub terrain_height: terrain_height::TerrainHeightConfig,
+    /// Bundle adjustment of each session's poses and boulders at its end
+    /// ([`boulder_adjustment`]); session 1's map is fused after it.
+    pub boulder_adjustment: boulder_adjustment::BoulderAdjustmentConfig,
 }
 
 impl Default for MissionConfig {
@@ -213,6 +225,8 @@ impl Default for MissionConfig {
             submap_max_turn_deg: 180.0,
             submap_min_window_s: 10.0,
             lost_submap_pose_sigma_m: 0.1,
+            prior_map_obstacles: true,
+            prior_obstacle_min_observations: 3,
             loop_closures: true,
             online_loop_closures: false,
             loop_closure_gap_s: 30.0,
@@ -246,6 +260,7 @@ impl Default for MissionConfig {
             relocalize: RelocalizeConfig::default(),
             rock_grid: RockGridConfig::default(),
             terrain_height: terrain_height::TerrainHeightConfig::default(),
+            boulder_adjustment: boulder_adjustment::BoulderAdjustmentConfig::default(),
         }
     }
 }
@@ -347,6 +362,9 @@ impl MissionConfig {
         if let Err(m) = self.fusion.validate() {
             return bad(&format!("fusion: {m}"));
         }
+        if let Err(m) = self.boulder_adjustment.validate() {
+            return bad(&format!("boulder_adjustment: {m}"));
+        }
         if [self.gravity_sigma_rad, self.gate_bootstrap_sigmas]
             .iter()
             .any(|v| !(v.is_finite() && *v >= 0.0))
@@ -432,7 +450,10 @@ pub fn run_mission_with_progress(
     let mut session_2 = lost_session::localize_session(
         &moon,
         config,
-        &relocalizer,
+        lost_session::PriorSession {
+            relocalizer: &relocalizer,
+            map: &session_1.map,
+        },
         start_2,
         guess_2,
         seed.wrapping_mul(2).wrapping_add(1),

@@ -1,5 +1,6 @@
 //! The mission report (JSON) and its pictures.
 
+use super::boulder_adjustment::BoulderAdjustmentReport;
 use super::lost_session::LocalizedSession;
 use super::mapping_session::MappedSession;
 use super::maps::MissionMaps;
@@ -98,6 +99,10 @@ pub struct SessionReport {
     pub rmse_graph_m: f64,
     /// Position RMSE of odometry alone, aligned at the true start, metres.
     pub rmse_without_global_m: f64,
+    /// Position RMSE of the pose graph's estimate before the boulder adjustment, metres.
+    pub rmse_before_adjustment_m: f64,
+    /// What the boulder adjustment did (`None`: off).
+    pub boulder_adjustment: Option<BoulderAdjustmentReport>,
     /// Distinct collision events.
     pub collisions: usize,
     /// Boulder detections.
@@ -187,11 +192,18 @@ pub struct MissionOutput {
     pub trace: super::MissionTrace,
 }
 
+/// What a session's pose graph and its boulder adjustment measured.
+struct Adjusted<'a> {
+    rmse_graph_m: f64,
+    rmse_before_adjustment_m: f64,
+    adjustment: &'a Option<BoulderAdjustmentReport>,
+}
+
 fn session_report(
     n: usize,
     log: &SessionLog,
     poses: &[Isometry3<f64>],
-    rmse_graph_m: f64,
+    adjusted: Adjusted,
     attempts: &[Attempt],
 ) -> SessionReport {
     let s = log.summary();
@@ -200,8 +212,10 @@ fn session_report(
         duration_s: s.duration_s,
         distance_m: s.distance_m,
         rmse_m: rmse_m(log, poses),
-        rmse_graph_m,
+        rmse_graph_m: adjusted.rmse_graph_m,
         rmse_without_global_m: rmse_m(log, &odometry_in_world(log)),
+        rmse_before_adjustment_m: adjusted.rmse_before_adjustment_m,
+        boulder_adjustment: adjusted.adjustment.clone(),
         collisions: s.collisions,
         detections: s.detections,
         relocalizations: RelocalizationCounts::of(attempts),
@@ -226,8 +240,28 @@ pub(super) fn assemble(
     wall_s: f64,
 ) -> MissionOutput {
     let sessions = vec![
-        session_report(1, &one.log, &one.poses, one.rmse_graph_m, &one.attempts),
-        session_report(2, &two.log, &two.poses, two.rmse_graph_m, &two.attempts),
+        session_report(
+            1,
+            &one.log,
+            &one.poses,
+            Adjusted {
+                rmse_graph_m: one.rmse_graph_m,
+                rmse_before_adjustment_m: one.rmse_before_adjustment_m,
+                adjustment: &one.adjustment,
+            },
+            &one.attempts,
+        ),
+        session_report(
+            2,
+            &two.log,
+            &two.poses,
+            Adjusted {
+                rmse_graph_m: two.rmse_graph_m,
+                rmse_before_adjustment_m: two.rmse_before_adjustment_m,
+                adjustment: &two.adjustment,
+            },
+            &two.attempts,
+        ),
     ];
     let collisions = sessions.iter().map(|s| s.collisions).sum();
     let simulated: f64 = sessions.iter().map(|s| s.duration_s).sum();

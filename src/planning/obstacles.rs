@@ -198,6 +198,10 @@ pub struct ObstacleMemory {
     max_radius_m: f64,
     frame: u64,
     rover: Option<Point2<f64>>,
+    /// Rocks known beforehand (a prior session's map placed in this memory's frame): they
+    /// always count and are never refuted ([`ObstacleMemory::set_known_rocks`]).
+    known: Vec<Obstacle>,
+    known_index: GridIndex,
 }
 
 fn p3(p: &Point2<f64>) -> Point3<f64> {
@@ -215,7 +219,45 @@ impl ObstacleMemory {
             max_radius_m: 0.0,
             frame: 0,
             rover: None,
+            known: Vec::new(),
+            known_index: GridIndex::new(1.0),
         }
+    }
+
+    /// Replace the rocks known beforehand: `(p, radius_m)` in this memory's (session)
+    /// frame, e.g. a prior session's boulder map placed with the current relocalization.
+    /// They count as obstacles whatever the cameras see (a rock below the image or behind
+    /// a crest is still there) and are never refuted; rocks smaller than the avoid
+    /// threshold and non-finite ones are left out. Returns how many were kept.
+    pub fn set_known_rocks(&mut self, rocks: &[(Point2<f64>, f64)]) -> usize {
+        let threshold = self.avoid_radius_m();
+        self.known = rocks
+            .iter()
+            .filter(|(p, r)| p.x.is_finite() && p.y.is_finite() && r.is_finite())
+            .filter(|(_, r)| *r >= threshold)
+            .map(|&(p, radius_m)| Obstacle {
+                p,
+                z_m: f64::NAN,
+                radius_m,
+                hits: self.config.min_hits.max(1),
+                misses: 0,
+                last_hit_frame: 0,
+                sightings: 1,
+                refuted_hits: 0,
+            })
+            .collect();
+        let mut index = GridIndex::new(1.0);
+        for (id, o) in self.known.iter().enumerate() {
+            index.insert(id as u32, &p3(&o.p));
+            self.max_radius_m = self.max_radius_m.max(o.radius_m);
+        }
+        self.known_index = index;
+        self.known.len()
+    }
+
+    /// The rocks known beforehand ([`ObstacleMemory::set_known_rocks`]).
+    pub fn known_rocks(&self) -> &[Obstacle] {
+        &self.known
     }
 
     /// Where the rover is now (session frame): unconfirmed rocks count only within
@@ -516,11 +558,17 @@ impl ObstacleMemory {
     }
 
     /// Calls `visit` for every obstacle that counts (confirmed, or unconfirmed and not
-    /// refuted) within `radius_m` of `p` (centre distance).
+    /// refuted, and the rocks known beforehand) within `radius_m` of `p` (centre distance).
     pub fn for_each_near(&self, p: Point2<f64>, radius_m: f64, mut visit: impl FnMut(&Obstacle)) {
         self.index.for_each_near(&p3(&p), radius_m, |id| {
             let o = &self.obstacles[id as usize];
             if self.counts(o) && (o.p - p).norm() <= radius_m {
+                visit(o);
+            }
+        });
+        self.known_index.for_each_near(&p3(&p), radius_m, |id| {
+            let o = &self.known[id as usize];
+            if (o.p - p).norm() <= radius_m {
                 visit(o);
             }
         });

@@ -316,3 +316,34 @@ fn a_rock_of_another_size_is_another_rock() {
     any.add_rock(Point2::new(5.0, 0.2), 0.21);
     assert_eq!(any.obstacles().len(), 1);
 }
+
+#[test]
+fn known_rocks_count_until_replaced_and_are_never_refuted() {
+    let mut m = ObstacleMemory::new(&ObstacleConfig::default());
+    let kept = m.set_known_rocks(&[
+        (Point2::new(2.0, 0.0), 0.1),
+        // too small to avoid, and not finite
+        (Point2::new(3.0, 0.0), 0.03),
+        (Point2::new(f64::NAN, 0.0), 0.2),
+    ]);
+    assert_eq!(kept, 1);
+    assert!((m.max_radius_m() - 0.1).abs() < 1e-12);
+    let near = |m: &ObstacleMemory| {
+        let mut n = 0;
+        m.for_each_near(Point2::new(1.5, 0.0), 1.0, |_| n += 1);
+        n
+    };
+    assert_eq!(near(&m), 1);
+    // a camera looking straight at it without detecting it, frame after frame
+    for _ in 0..5 {
+        m.start_frame();
+        m.record_view(Pose2::new(0.5, 0.0, 0.0), 0.6, 0.3);
+    }
+    assert_eq!(near(&m), 1);
+    assert!(m.obstacles().is_empty());
+    // a new relocalization places them anew
+    m.set_known_rocks(&[(Point2::new(2.0, 0.05), 0.1)]);
+    assert_eq!(m.known_rocks().len(), 1);
+    assert_eq!(m.known_rocks()[0].p, Point2::new(2.0, 0.05));
+    assert_eq!(near(&m), 1);
+}

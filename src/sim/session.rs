@@ -76,6 +76,9 @@ pub struct SessionSim<'a> {
     /// `planner_from_session` at each frame of the log (what its detections were placed
     /// with).
     planner_history: Vec<Isometry3<f64>>,
+    /// Rocks known beforehand, world frame: centre (x, y) and radius
+    /// ([`SessionSim::set_known_rocks_world`]).
+    known_rocks_world: Vec<(Point2<f64>, f64)>,
     log: SessionLog,
     total_ticks: usize,
     wall: f64,
@@ -134,6 +137,7 @@ impl<'a> SessionSim<'a> {
             seen: SeenGrid::with_min_views(0.25, config.seen_ground_min_views),
             planner_from_session: Isometry3::identity(),
             planner_history: Vec::new(),
+            known_rocks_world: Vec::new(),
             log: SessionLog {
                 seed,
                 config: config.clone(),
@@ -177,11 +181,34 @@ impl<'a> SessionSim<'a> {
 
     /// Tell the navigator where the session frame sits in the nav (world) frame, e.g. after
     /// a relocalization (`world_from_session` estimate). Waypoints and the lander move with it.
+    /// The rocks known beforehand ([`SessionSim::set_known_rocks_world`]) move with it.
     pub fn set_world_from_session_estimate(&mut self, world_from_session: &Isometry3<f64>) {
         let (_, _, yaw) = world_from_session.rotation.euler_angles();
         let t = world_from_session.translation.vector;
         self.navigator
             .set_nav_from_session(Isometry2::new(Vector2::new(t.x, t.y), yaw));
+        if !self.known_rocks_world.is_empty() {
+            let planner_from_world =
+                planar_part(&(self.planner_from_session * world_from_session.inverse()));
+            let placed: Vec<(Point2<f64>, f64)> = self
+                .known_rocks_world
+                .iter()
+                .map(|(p, r)| {
+                    let q = planner_from_world * Point3::new(p.x, p.y, 0.0);
+                    (Point2::new(q.x, q.y), *r)
+                })
+                .collect();
+            self.obstacles.set_known_rocks(&placed);
+        }
+    }
+
+    /// Rocks known beforehand, in the world frame (centre x, y and radius, metres): a prior
+    /// session's boulder map. The planner avoids them, whether or not its cameras see them,
+    /// from the first [`SessionSim::set_world_from_session_estimate`] on (until then the
+    /// session does not know where the world is), each time placed with the latest
+    /// estimate.
+    pub fn set_known_rocks_world(&mut self, rocks: Vec<(Point2<f64>, f64)>) {
+        self.known_rocks_world = rocks;
     }
 
     /// Correct the planner's frame after a loop closure: `planner_from_session` holds, for
