@@ -14,14 +14,16 @@
 //!    becomes a landmark, initialised at its stereo-weighted centroid; each of its
 //!    detections a factor weighted by the stereo noise (depth along the line of sight) and
 //!    a model error, with a Cauchy kernel against wrong clusters;
-//! 3. optimise the graph with all its own factors kept, and start again from 1 with the
-//!    new poses ([`BoulderAdjustmentConfig::rounds`]: the clusters follow the poses).
+//! 3. optimise the graph with all its own factors kept; with more than one
+//!    [`BoulderAdjustmentConfig::rounds`], start again from 1 with the new poses (the
+//!    clusters follow them: needed when the poses are off by more than a cluster radius,
+//!    not after a session's loop closures).
 //!
 //! The adjusted poses are returned in a graph without the landmarks, so that the session
 //! goes on with the factors it had.
 
 use super::trajectory::TrajectoryGraph;
-use crate::graph::{GraphError, RobustKernel};
+use crate::graph::{GraphError, RobustKernel, SolverConfig};
 use crate::landmarks::cluster::cluster_points;
 use crate::landmarks::estimate::{detection_information, stereo_weighted};
 use crate::landmarks::view_bias::corrected;
@@ -37,7 +39,8 @@ use serde::{Deserialize, Serialize};
 pub struct BoulderAdjustmentConfig {
     /// Run the stage.
     pub enabled: bool,
-    /// Rounds of clustering and optimisation.
+    /// Rounds of clustering and optimisation (a second round, clustering with the adjusted
+    /// poses, changed session 1's error by less than 0.1 mm on seeds 1–10).
     pub rounds: usize,
     /// Boulders with fewer detections are left out.
     pub min_observations: usize,
@@ -46,16 +49,21 @@ pub struct BoulderAdjustmentConfig {
     pub model_sigma_m: f64,
     /// Cauchy width of the detection residuals, in σ.
     pub cauchy_sigmas: f64,
+    /// The solver stops once a step lowers the cost by less than this fraction (the
+    /// graph holds some 10,000 observations; 1e-4 leaves the poses within a tenth of a
+    /// millimetre of 1e-5's in a third of the time).
+    pub relative_tolerance: f64,
 }
 
 impl Default for BoulderAdjustmentConfig {
     fn default() -> Self {
         Self {
             enabled: true,
-            rounds: 2,
+            rounds: 1,
             min_observations: 3,
             model_sigma_m: 0.01,
             cauchy_sigmas: 3.0,
+            relative_tolerance: 1e-4,
         }
     }
 }
@@ -68,6 +76,9 @@ impl BoulderAdjustmentConfig {
         }
         if !(self.cauchy_sigmas.is_finite() && self.cauchy_sigmas > 0.0) {
             return Err("cauchy_sigmas must be positive".into());
+        }
+        if !(self.relative_tolerance.is_finite() && self.relative_tolerance > 0.0) {
+            return Err("relative_tolerance must be positive".into());
         }
         if self.rounds > 20 {
             return Err("rounds must be at most 20".into());
@@ -161,7 +172,11 @@ pub fn adjust(
             .collect();
         let mut with_boulders = adjusted.clone();
         let factors = add_boulders(&mut with_boulders, log, &poses, fusion, config)?;
-        with_boulders.optimize()?;
+        with_boulders.graph.optimize(&SolverConfig {
+            relative_tolerance: config.relative_tolerance,
+            log_iterations: false,
+            ..SolverConfig::default()
+        })?;
         report = summarise(&with_boulders, &factors, config);
         // poses and frames (a session placed in a prior map has its frame variable)
         for key in adjusted.graph.keys().to_vec() {
@@ -362,7 +377,12 @@ mod tests {
         let before = rmse_m(&log, &graph.poses_in_prior());
         assert!(before > 0.3, "the odometry alone is off by {before} m");
         let fusion = FusionConfig::default();
-        let config = BoulderAdjustmentConfig::default();
+        // the poses start up to a metre off, more than a cluster radius: the clusters
+        // need the rounds to follow the poses
+        let config = BoulderAdjustmentConfig {
+            rounds: 3,
+            ..BoulderAdjustmentConfig::default()
+        };
         let report = adjust_in_place(&mut graph, &log, &fusion, &config)
             .unwrap()
             .unwrap();
