@@ -2,7 +2,9 @@
 //! relocalize a submap of the recent detections (odometry frame) against session 1's map,
 //! turn accepted results into relocalization factors, re-optimise, and tell the planner.
 
-use super::boulder_adjustment::{adjust_in_place, BoulderAdjustmentReport};
+use super::boulder_adjustment::{
+    adjust_in_place, BoulderAdjustmentConfig, BoulderAdjustmentReport,
+};
 use super::fix_gate::{agrees, Tolerance};
 use super::lander_factor::{add_lander_factors, add_lander_factors_optimized};
 use super::odometry_bias::OdometryBias;
@@ -152,7 +154,12 @@ pub fn localize_session(
         graph.calibrate(config, config.calibration_rounds)?;
     }
     let rmse_before_adjustment_m = super::trajectory::rmse_m(&log, &graph.poses_in_prior());
-    let adjustment = adjust_in_place(&mut graph, &log, &config.fusion, &config.boulder_adjustment)?;
+    // session 2 keeps session 1's viewpoint bias, which the rock map uses too
+    let adjustment_config = BoulderAdjustmentConfig {
+        estimate_view_bias: false,
+        ..config.boulder_adjustment.clone()
+    };
+    let adjustment = adjust_in_place(&mut graph, &log, &config.fusion, &adjustment_config)?;
     let poses = graph.poses_in_prior();
     let rmse_graph_m = super::trajectory::rmse_m(&log, &poses);
     Ok(LocalizedSession {

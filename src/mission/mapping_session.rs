@@ -45,17 +45,26 @@ pub struct MappedSession {
     pub adjustment: Option<BoulderAdjustmentReport>,
     /// Position RMSE of the pose graph's poses before the boulder adjustment, metres.
     pub rmse_before_adjustment_m: f64,
-    /// The viewpoint-bias calibration at the end of the session (the map was fused with
-    /// its estimate; later sessions and the maps use it too).
+    /// The viewpoint-bias calibration at the end of the session from its short passes.
     pub view_bias: ViewBiasCalibration,
+    /// The viewpoint-bias size fraction the boulder adjustment estimated from every pass,
+    /// if it did: the map was fused with it (else with `view_bias`'s), and later sessions
+    /// and the maps use it too.
+    pub adjusted_view_bias: Option<f64>,
 }
 
 impl MappedSession {
     /// `config` with this session's calibrated fusion parameters, for the sessions and
     /// maps that follow.
     pub fn calibrated(&self, config: &MissionConfig) -> MissionConfig {
+        let fusion = self.view_bias.fusion(&config.fusion);
         MissionConfig {
-            fusion: self.view_bias.fusion(&config.fusion),
+            fusion: FusionConfig {
+                view_bias_size_fraction: self
+                    .adjusted_view_bias
+                    .unwrap_or(fusion.view_bias_size_fraction),
+                ..fusion
+            },
             ..config.clone()
         }
     }
@@ -129,7 +138,19 @@ pub fn map_session(
     }
     let fusion = view_bias.fusion(&config.fusion);
     let rmse_before_adjustment_m = super::trajectory::rmse_m(&log, &graph.poses_in_prior());
+    if config.boulder_adjustment.enabled {
+        // the boulders tie the passes together themselves: the loop closures, made with
+        // the short-pass viewpoint bias, would hold its error in
+        graph = graph.without_loop_closures(config)?;
+    }
     let adjustment = adjust_in_place(&mut graph, &log, &fusion, &config.boulder_adjustment)?;
+    // the adjustment's estimate of the viewpoint bias, from every pass, replaces the
+    // short-pass one for the map and everything after it
+    let adjusted_view_bias = adjustment.as_ref().and_then(|a| a.view_bias_size_fraction);
+    let fusion = FusionConfig {
+        view_bias_size_fraction: adjusted_view_bias.unwrap_or(fusion.view_bias_size_fraction),
+        ..fusion
+    };
     let poses = graph.poses_in_prior();
     let set = detections_with_poses(&log, &poses, 0..log.frames.len(), "session1", "world");
     let map = fuse_detections(&set, &fusion);
@@ -144,6 +165,7 @@ pub fn map_session(
         adjustment,
         rmse_before_adjustment_m,
         view_bias,
+        adjusted_view_bias,
     })
 }
 

@@ -278,6 +278,20 @@ impl TrajectoryGraph {
         Ok(())
     }
 
+    /// A copy without the loop closures (the relocalizations and pose priors kept), at the
+    /// current estimates: for a bundle adjustment, whose boulder observations are what the
+    /// closures summarised ([`super::boulder_adjustment`]).
+    pub fn without_loop_closures(
+        &self,
+        config: &super::MissionConfig,
+    ) -> Result<TrajectoryGraph, GraphError> {
+        let mut copy = self.clone();
+        copy.extra
+            .retain(|f| !matches!(f, ExtraFactor::Between { .. }));
+        copy.rebuild(config)?;
+        Ok(copy)
+    }
+
     /// A new graph with the same variables (current estimates), the odometry corrected with
     /// the current bias, and the same relocalizations and loop closures.
     fn rebuild(&mut self, config: &super::MissionConfig) -> Result<(), GraphError> {
