@@ -131,6 +131,11 @@ pub struct BoulderAdjustmentReport {
     pub view_bias_size_fraction: Option<f64>,
     /// Its standard error.
     pub view_bias_standard_error: Option<f64>,
+    /// Solves of the graph with the boulders (one per round, three more per estimate of
+    /// the viewpoint bias).
+    pub solves: usize,
+    /// Wall-clock time of the whole adjustment, milliseconds.
+    pub time_ms: f64,
 }
 
 /// One detection placed with the current poses.
@@ -208,15 +213,18 @@ pub fn adjust(
     fusion: &FusionConfig,
     config: &BoulderAdjustmentConfig,
 ) -> Result<(TrajectoryGraph, BoulderAdjustmentReport), GraphError> {
+    let started = std::time::Instant::now();
     let mut adjusted = graph.clone();
     let mut report = BoulderAdjustmentReport::default();
     let mut fusion = fusion.clone();
+    let mut solves = 0;
     for _ in 0..config.rounds {
         let poses: Vec<Isometry3<f64>> = (0..adjusted.frames)
             .map(|k| adjusted.pose_or_identity(k))
             .collect();
         let clusters = boulder_clusters(&place(log, &poses, &fusion), &fusion, config);
-        let solve = |fraction: f64, start: Option<&TrajectoryGraph>| {
+        let mut solve = |fraction: f64, start: Option<&TrajectoryGraph>| {
+            solves += 1;
             let fusion = FusionConfig {
                 view_bias_size_fraction: fraction,
                 ..fusion.clone()
@@ -240,6 +248,7 @@ pub fn adjust(
             }
         }
         report = summarise(&solved, &added, config);
+        report.solves = solves;
         report.view_bias_size_fraction = estimated.map(|(f, _)| f);
         report.view_bias_standard_error = estimated.map(|(_, s)| s);
         // poses and frames (a session placed in a prior map has its frame variable)
@@ -249,6 +258,7 @@ pub fn adjust(
             }
         }
     }
+    report.time_ms = started.elapsed().as_secs_f64() * 1e3;
     Ok((adjusted, report))
 }
 
