@@ -97,6 +97,11 @@ impl Default for BoulderAdjustmentConfig {
 }
 
 impl BoulderAdjustmentConfig {
+    /// Whether the stage runs (enabled, at least one round).
+    pub fn runs(&self) -> bool {
+        self.enabled && self.rounds > 0
+    }
+
     /// Checks the values; the message names the field.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.model_sigma_m.is_finite() && self.model_sigma_m >= 0.0) {
@@ -196,7 +201,7 @@ pub fn adjust_in_place(
     fusion: &FusionConfig,
     config: &BoulderAdjustmentConfig,
 ) -> Result<Option<BoulderAdjustmentReport>, GraphError> {
-    if !config.enabled || config.rounds == 0 {
+    if !config.runs() {
         return Ok(None);
     }
     let (adjusted, report) = adjust(graph, log, fusion, config)?;

@@ -138,9 +138,10 @@ pub fn map_session(
     }
     let fusion = view_bias.fusion(&config.fusion);
     let rmse_before_adjustment_m = super::trajectory::rmse_m(&log, &graph.poses_in_prior());
-    if config.boulder_adjustment.enabled {
-        // the boulders tie the passes together themselves: the loop closures, made with
-        // the short-pass viewpoint bias, would hold its error in
+    if config.boulder_adjustment.runs() {
+        // the boulders are the evidence the loop closures summarised (fused with the
+        // short-pass viewpoint bias): counted once, and a wrong closure cannot bend the
+        // adjusted trajectory
         graph = graph.without_loop_closures(config)?;
     }
     let adjustment = adjust_in_place(&mut graph, &log, &fusion, &config.boulder_adjustment)?;
