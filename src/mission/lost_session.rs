@@ -9,9 +9,8 @@ use super::fix_gate::{agrees, Tolerance};
 use super::lander_factor::{add_lander_factors, add_lander_factors_optimized};
 use super::odometry_bias::OdometryBias;
 use super::progress::{MissionProgress, MissionStage};
-use super::trajectory::{
-    detections_with_poses, frame_nearest, landmark_positions, TrajectoryGraph,
-};
+use super::submap::{detections_with_poses, frame_nearest, landmark_positions};
+use super::trajectory::TrajectoryGraph;
 use super::{Attempt, MissionConfig, MissionError};
 use crate::graph::{se3, RobustKernel};
 use crate::landmarks::{fuse_detections, FusionConfig};

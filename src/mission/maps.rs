@@ -11,7 +11,7 @@ use crate::sim::session::SessionLog;
 use nalgebra::Isometry3;
 use segloc_maps::{DetectionSet, LacGrid};
 
-use super::trajectory::detections_with_poses;
+use super::submap::detections_with_poses;
 
 /// The mission's map and its score.
 pub struct MissionMaps {

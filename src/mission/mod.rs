@@ -37,6 +37,7 @@ pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod recording;
 pub mod report;
+pub mod submap;
 pub mod terrain_height;
 pub mod trace;
 pub mod trajectory;

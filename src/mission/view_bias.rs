@@ -5,7 +5,7 @@
 //! the rover would do online — then used by every fusion that follows: submaps, loop
 //! closures, the session's map, session 2 and the LAC rock map.
 
-use super::trajectory::detections_with_poses;
+use super::submap::detections_with_poses;
 use crate::landmarks::size_bias::SizeBiasEvidence;
 use crate::landmarks::FusionConfig;
 use crate::sim::session::SessionLog;
