@@ -4,7 +4,7 @@
 
 use crate::sim::session::SessionLog;
 use nalgebra::{Isometry3, Point3};
-use segloc_maps::{Detection, DetectionSet};
+use segloc_maps::DetectionSet;
 
 /// The boulder detections of frames `frames` placed with `poses` (one per frame of the
 /// log, `x_from_rover`), as a detection set in frame `frame_name`.
@@ -20,16 +20,7 @@ pub fn detections_with_poses(
         let (Some(f), Some(pose)) = (log.frames.get(k), poses.get(k)) else {
             continue;
         };
-        let rover = Point3::from(pose.translation.vector);
-        for b in &f.boulders {
-            set.detections.push(Detection {
-                frame: f.tick as u64,
-                p_world: pose * b.p_rover,
-                rover_position: Some(rover),
-                size_m: Some(2.0 * b.radius_m),
-                score: None,
-            });
-        }
+        set.detections.extend(f.detections(pose));
     }
     set
 }

@@ -116,6 +116,25 @@ pub struct SessionLog {
     pub wall_time_s: f64,
 }
 
+impl FrameRecord {
+    /// This frame's boulder detections placed with `x_from_rover` (the rover's pose in the
+    /// detection set's frame): each detection's `frame` is the tick, `size_m` the measured
+    /// diameter.
+    pub fn detections<'a>(
+        &'a self,
+        x_from_rover: &'a Isometry3<f64>,
+    ) -> impl Iterator<Item = Detection> + 'a {
+        let rover = Point3::from(x_from_rover.translation.vector);
+        self.boulders.iter().map(move |b| Detection {
+            frame: self.tick as u64,
+            p_world: x_from_rover * b.p_rover,
+            rover_position: Some(rover),
+            size_m: Some(2.0 * b.radius_m),
+            score: None,
+        })
+    }
+}
+
 impl SessionLog {
     /// The true transform from the session frame to the world, fixed at the start (what a
     /// relocalization against a world-frame map should find, up to odometry drift).
@@ -178,17 +197,7 @@ impl SessionLog {
             let Some(t) = self.ticks.get(f.tick) else {
                 continue;
             };
-            let x_from_rover = pose(t);
-            let rover = Point3::from(x_from_rover.translation.vector);
-            for b in &f.boulders {
-                set.detections.push(Detection {
-                    frame: f.tick as u64,
-                    p_world: x_from_rover * b.p_rover,
-                    rover_position: Some(rover),
-                    size_m: Some(2.0 * b.radius_m),
-                    score: None,
-                });
-            }
+            set.detections.extend(f.detections(&pose(t)));
         }
         set
     }
