@@ -10,6 +10,8 @@
 //!   takes a traverse.
 //! - [`LacGrid`]: the Lunar Autonomy Challenge 180 × 180 height / rock grid and its CSV
 //!   ([`read_grid_csv`], [`write_grid_csv`]).
+//! - TUM trajectories (`t tx ty tz qx qy qz qw`, as `evo` reads them): [`read_tum`],
+//!   [`write_tum`].
 //!
 //! Every reader returns a [`MapError`] naming the file (and line) on bad input; every writer
 //! is atomic (temporary file in the same directory, then rename).
@@ -24,6 +26,7 @@ pub mod map_file;
 pub mod object_map;
 pub mod point_list;
 pub mod traverse;
+pub mod tum;
 
 pub use atomic::write_atomic;
 pub use detections::{
@@ -44,3 +47,4 @@ pub use point_list::parse_point_list;
 pub use traverse::{
     parse_lunarloc_traverse, read_lunarloc_traverse, Traverse, TraverseFrame, TRAVERSE_HEADER,
 };
+pub use tum::{parse_tum, read_tum, tum_to_string, write_tum, TUM_HEADER};
