@@ -13,8 +13,8 @@
 //!   into the trajectory's frame (`world_from_body`).
 //! - `#` lines and blank lines are skipped.
 //! - Times must be strictly increasing; every value finite.
-//! - A quaternion whose norm is within 10⁻³ of 1 is normalised (see
-//!   [`unit_quaternion`]); a larger error is refused.
+//! - A quaternion whose norm is within 10⁻¹² of 1 is taken as written (so that round trips
+//!   are bit-exact); within 10⁻³ it is normalised; a larger error is refused.
 //!
 //! The writer uses Rust's shortest round-trip form for numbers (`0.1`, `-7.0`, `1e-300`), so
 //! reading back gives identical values. The full description is in `maps/FORMAT.md`.
