@@ -10,6 +10,9 @@
 //!   takes a traverse.
 //! - [`LacGrid`]: the Lunar Autonomy Challenge 180 × 180 height / rock grid and its CSV
 //!   ([`read_grid_csv`], [`write_grid_csv`]).
+//! - [`StreamFrame`]: one camera frame of a recorded drive (odometry pose, gravity, boulder
+//!   detections in the rover frame), for replaying it through the online localizer; the
+//!   JSON Lines frames file ([`read_frames`], [`write_frames`]).
 //! - TUM trajectories (`t tx ty tz qx qy qz qw`, as `evo` reads them): [`read_tum`],
 //!   [`write_tum`].
 //!
@@ -20,6 +23,7 @@
 pub mod atomic;
 pub mod detections;
 pub mod error;
+pub mod frames;
 pub mod grid;
 pub mod landmark;
 pub mod map_file;
@@ -34,6 +38,10 @@ pub use detections::{
     Detection, DetectionSet, DETECTIONS_FORMAT_VERSION, DETECTIONS_HEADER,
 };
 pub use error::MapError;
+pub use frames::{
+    frame_to_json_line, parse_frames, read_frames, write_frames, FrameDetection, FramePath,
+    FramesFile, StreamFrame, FRAMES_FORMAT_NAME, FRAMES_FORMAT_VERSION,
+};
 pub use grid::{
     grid_to_string, parse_grid_csv, read_grid_csv, write_grid_csv, LacGrid, GRID_HEADER,
     LAC_CELLS_PER_SIDE, LAC_CELL_SIZE_M,
