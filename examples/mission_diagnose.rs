@@ -12,7 +12,6 @@
 use nalgebra::Isometry3;
 use segloc::mapping::{score, HeightMapBuilder};
 use segloc::mission::{lost_session, mapping_session, maps, MissionConfig, Silent};
-use segloc::relocalize::Relocalizer;
 use segloc::sim::moon::Moon;
 use segloc::sim::session::SessionLog;
 use segloc_maps::LacGrid;
@@ -111,16 +110,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
     let s1 = mapping_session::map_session(&moon, &config, start_1, seed * 2, &Silent)?;
     let config = s1.calibrated(&config);
-    let relocalizer = Relocalizer::new(s1.map.clone(), config.relocalize.clone())?;
     let s2 = lost_session::localize_session(
         &moon,
         &config,
-        lost_session::PriorSession {
-            relocalizer: &relocalizer,
-            map: &s1.map,
-        },
-        start_2,
-        guess_2,
+        &s1.map,
+        (start_2, guess_2),
         seed * 2 + 1,
         &Silent,
     )?;
@@ -335,7 +329,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ceiling = score(&perfect.build(), &truth, None)?.geometric;
     let out = serde_json::json!({
         "seed": seed,
-        "view_bias_size_fraction": config.fusion.view_bias_size_fraction,
+        "view_bias_size_fraction": config.localizer.fusion.view_bias_size_fraction,
         "geometric": [m_est.score.geometric, m_z.score.geometric, m_tru.score.geometric, ceiling],
         "rocks": [m_est.score.rocks, m_tru.score.rocks],
         "rocks_s1_true_s2_true": [m_s1_true.score.rocks, m_s2_true.score.rocks],
@@ -343,7 +337,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "rock_pr_true": [m_tru.score.rock_precision, m_tru.score.rock_recall],
         "cells_observed_ok_unobserved_ok_est": h_est,
         "cells_observed_ok_unobserved_ok_true": h_tru,
-        "rmse": [segloc::mission::trajectory::rmse_m(&s1.log, &s1.poses), segloc::mission::trajectory::rmse_m(&s2.log, &s2.poses)],
+        "rmse": [segloc::mission::stream::rmse_m(&s1.log, &s1.poses), segloc::mission::stream::rmse_m(&s2.log, &s2.poses)],
         "rmse_xy_z_graph": rmse_graph,
         "tilt_deg": [tilt_deg(&s1.log, &s1.poses), tilt_deg(&s2.log, &s2.poses)],
         "rmse_xy_z": [rmse_xy_z(&s1.log, &s1.poses), rmse_xy_z(&s2.log, &s2.poses)],

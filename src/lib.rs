@@ -18,6 +18,7 @@ pub mod font;
 pub mod graph;
 pub mod io;
 pub mod landmarks;
+pub mod localizer;
 pub mod mapping;
 pub mod memory;
 pub mod merge;

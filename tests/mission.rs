@@ -63,7 +63,7 @@ fn global_factors_reduce_session_two_error_and_no_wrong_relocalization() {
         .and_then(|a| a.view_bias_size_fraction);
     let f = f.expect("session 1 estimated the viewpoint bias");
     assert!((0.12..=0.21).contains(&f), "viewpoint bias fraction {f}");
-    assert_eq!(r.config.fusion.view_bias_size_fraction, f);
+    assert_eq!(r.config.localizer.fusion.view_bias_size_fraction, f);
     assert!(
         s1.rmse_graph_m < s1.rmse_before_adjustment_m,
         "boulder adjustment: {} -> {} m",
@@ -76,11 +76,11 @@ fn global_factors_reduce_session_two_error_and_no_wrong_relocalization() {
 /// default: BENCHMARKS.md has the 20 seeds).
 #[test]
 fn online_loop_closures_run() {
-    let config = MissionConfig {
+    let mut config = MissionConfig {
         seconds_per_session: 120.0,
-        online_loop_closures: true,
         ..MissionConfig::default()
     };
+    config.localizer.loop_closures.online = true;
     let out = run_mission(3, &config).unwrap();
     let r = &out.report;
     assert_eq!(r.relocalizations.wrong_accepted, 0, "{:?}", r.attempts);
@@ -156,6 +156,6 @@ fn session_one_finds_its_way_out_of_a_pocket_beside_the_lander() {
     // the viewpoint bias session 1 calibrated from its own passes (the simulated detector
     // puts centroids a third of the radius, a sixth of the size, in front of the centre;
     // seeds 1–20 estimate 0.11–0.17, BENCHMARKS.md)
-    let f = out.report.config.fusion.view_bias_size_fraction;
+    let f = out.report.config.localizer.fusion.view_bias_size_fraction;
     assert!((0.09..=0.22).contains(&f), "view bias fraction {f}");
 }

@@ -36,10 +36,8 @@ pub fn run(cmd: &ConfigCommand, config: &RelocalizeConfig) -> Result<i32> {
             print!("{}", toml::to_string_pretty(config)?)
         }
         ConfigCommand::Print { mission: true, .. } => {
-            let mission = MissionConfig {
-                relocalize: config.clone(),
-                ..MissionConfig::default()
-            };
+            let mut mission = MissionConfig::default();
+            mission.localizer.relocalize = config.clone();
             print!("{}", toml::to_string_pretty(&mission)?)
         }
         ConfigCommand::Check => println!("configuration is valid"),

@@ -94,7 +94,7 @@ fn mission_config(
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= 1e5) {
         bail!("--seconds must be within (0, 1e5]");
     }
-    Ok(MissionConfig {
+    let mut mission = MissionConfig {
         seconds_per_session: seconds,
         // `--seconds` sets both sessions
         seconds_session_2: if args.seconds.is_some() {
@@ -102,13 +102,12 @@ fn mission_config(
         } else {
             base.seconds_session_2
         },
-        relocalize: if global_config_given {
-            relocalize.clone()
-        } else {
-            base.relocalize.clone()
-        },
         ..base
-    })
+    };
+    if global_config_given {
+        mission.localizer.relocalize = relocalize.clone();
+    }
+    Ok(mission)
 }
 
 /// A progress bar over both sessions' simulated time; `session` is the one its message

@@ -11,7 +11,7 @@ use crate::sim::session::SessionLog;
 use nalgebra::Isometry3;
 use segloc_maps::{DetectionSet, LacGrid};
 
-use super::submap::detections_with_poses;
+use super::stream::detections_with_poses;
 
 /// The mission's map and its score.
 pub struct MissionMaps {
@@ -43,8 +43,12 @@ pub fn build_maps(
         all.detections.extend(set.detections);
     }
     let height_grid = heights.build();
-    let (grid, landmarks) =
-        rock_grid_from_detections(&all, &height_grid, &config.fusion, &config.rock_grid);
+    let (grid, landmarks) = rock_grid_from_detections(
+        &all,
+        &height_grid,
+        &config.localizer.fusion,
+        &config.rock_grid,
+    );
     let score = score(&grid, truth, Some(mission_seconds))?;
     Ok(MissionMaps {
         grid,

@@ -3,15 +3,14 @@
 //! built from the optimised poses of both and scored against the synthetic moon's truth.
 //!
 //! Stages, one file each:
-//! - [`mapping_session`]: session 1 — drive, pose graph of odometry anchored at the known
-//!   start, boulder map fused in the optimised (world) frame;
-//! - [`lost_session`]: session 2 — drive with a wrong start guess, relocalize submaps of the
-//!   recent detections against session 1's map, relocalization factors, re-optimise, tell
-//!   the planner;
-//! - [`trajectory`]: the per-session pose graph and trajectory error;
-//! - [`boulder_adjustment`]: each session's poses and boulders adjusted together at its end;
-//! - [`lander_factor`]: absolute pose factors from the points measured on the lander;
-//! - [`gravity`]: roll and pitch factors from the IMU's gravity direction;
+//! - [`mapping_session`]: session 1 — drive from a known start, every camera frame fed to a
+//!   mapping [`crate::localizer::Localizer`] (loop closures, boulder adjustment), whose map
+//!   is the prior of session 2;
+//! - [`lost_session`]: session 2 — drive with a wrong start guess, every camera frame fed to
+//!   a [`crate::localizer::Localizer`] against session 1's map, whose corrections tell the
+//!   planner where it is;
+//! - [`stream`]: a simulated session as the localizer's frames, and the truth that scores
+//!   the localizer's output;
 //! - [`terrain_height`]: the trajectories' heights aligned on the ground both sessions saw;
 //! - [`maps`]: height and rock maps, LAC score;
 //! - [`report`]: the JSON report and the pictures;
@@ -25,28 +24,20 @@
 //! println!("{}", serde_json::to_string(&report.report).unwrap());
 //! ```
 
-pub mod boulder_adjustment;
-pub mod fix_gate;
-pub mod gravity;
-pub mod lander_factor;
 pub mod lost_session;
 pub mod mapping_session;
 pub mod maps;
-pub mod odometry_bias;
 pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod recording;
 pub mod report;
-pub mod submap;
+pub mod stream;
 pub mod terrain_height;
 pub mod trace;
-pub mod trajectory;
-pub mod view_bias;
 
 use crate::graph::GraphError;
-use crate::landmarks::{CentroidEstimator, FusionConfig};
+use crate::localizer::{LocalizerConfig, LocalizerError};
 use crate::mapping::{RockGridConfig, ScoreError};
-use crate::relocalize::{RelocalizeConfig, RelocalizeError, Relocalizer};
 use crate::sim::moon::{Moon, MoonConfig, MoonError};
 use crate::sim::session::{SessionConfig, SessionError};
 use serde::{Deserialize, Serialize};
@@ -71,9 +62,9 @@ pub enum MissionError {
     /// The pose graph failed.
     #[error("pose graph: {0}")]
     Graph(#[from] GraphError),
-    /// The relocalizer could not be prepared.
+    /// The localizer failed.
     #[error(transparent)]
-    Relocalize(#[from] RelocalizeError),
+    Localizer(#[from] LocalizerError),
     /// The maps could not be scored.
     #[error(transparent)]
     Score(#[from] ScoreError),
@@ -99,21 +90,6 @@ pub struct MissionConfig {
     pub start_2: [f64; 3],
     /// Error of session 2's start guess [dx, dy, dyaw] (m, m, rad).
     pub guess_error_2: [f64; 3],
-    /// Seconds between relocalization attempts of session 2.
-    pub relocalize_period_s: f64,
-    /// Seconds of recent detections in a relocalization submap.
-    pub submap_window_s: f64,
-    /// A submap stops (going back in time) once the rover turned this much in it, degrees
-    /// (odometry's yaw error grows with the angle turned and bends the submap).
-    pub submap_max_turn_deg: f64,
-    /// … but spans at least this many seconds.
-    pub submap_min_window_s: f64,
-    /// Session 2's submaps: the fusion's `pose_sigma_m` (m) for their stereo-weighted
-    /// centroids. They are placed by an odometry whose biases session 2 has not yet
-    /// calibrated, good to about 1 % of the 10–12 m driven in a window; with session 1's
-    /// centimetre the near views of a bent submap outweighed the rest and one seed in 20
-    /// accepted a relocalization 1.4° off (BENCHMARKS.md).
-    pub lost_submap_pose_sigma_m: f64,
     /// Session 2's planner avoids the rocks of session 1's map from its first accepted
     /// relocalization on, placed with its latest estimate of where it is, whether or not
     /// its own cameras see them (a rock hidden behind a crest and then below the image is
@@ -121,85 +97,17 @@ pub struct MissionConfig {
     pub prior_map_obstacles: bool,
     /// … rocks of session 1's map seen at least this many times.
     pub prior_obstacle_min_observations: u32,
-    /// Session 1 relocalizes its recent submaps against its own earlier map (loop closures).
-    pub loop_closures: bool,
-    /// Session 1 also closes its loops while it drives, and its planner works in the
-    /// corrected frame ([`crate::sim::session::SessionSim::reanchor_planner`]): a
-    /// rock passed again after a loop is then remembered once, not twice 30–50 cm apart.
-    /// The map and the poses still come from the closures made after the drive.
-    pub online_loop_closures: bool,
-    /// Loop closures: the earlier map ends this many seconds before the submap starts.
-    pub loop_closure_gap_s: f64,
-    /// Loop closures: the start map holds the frames before the rover moved this far (m).
-    pub start_map_max_motion_m: f64,
-    /// Loop closures: … or turned this much (degrees) from its known start.
-    pub start_map_max_turn_deg: f64,
-    /// Multiplies the relocalizer's information before it enters the graph (< 1: trust the
-    /// submap less, since its odometry drifted within the window).
-    pub relocalization_information_scale: f64,
-    /// Scale (Mahalanobis distance) of the Cauchy kernel on loop-closure and relocalization
-    /// factors.
-    pub robust_scale: f64,
-    /// Odometry translation noise per metre driven, 1 σ (graph weights).
-    pub vo_translation_sigma_m_per_m: f64,
-    /// Odometry yaw noise per metre driven, 1 σ (graph weights).
-    pub vo_yaw_sigma_rad_per_m: f64,
-    /// Odometry yaw noise per radian turned, 1 σ (graph weights).
-    pub vo_yaw_sigma_per_rad_turned: f64,
-    /// Gravity factor on every frame's roll and pitch (the IMU's gravity direction), 1 σ,
-    /// radians; 0 leaves the tilt to the odometry's relative factors alone (it then drifts:
-    /// 0.3–0.7° rms over a 600 s session, 3–5 cm of height at 4 m range).
-    pub gravity_sigma_rad: f64,
-    /// Estimate the odometry's biases (scale, yaw drift per metre, yaw-rate scale) from the
-    /// fixes and correct the odometry factors and submaps with them.
-    pub calibrate_odometry: bool,
-    /// Alternations of bias estimate and graph solve per calibration.
-    pub calibration_rounds: usize,
-    /// Prior (1 σ) of the odometry's scale error, fraction.
-    pub vo_bias_prior_scale: f64,
-    /// Prior (1 σ) of the odometry's yaw drift, radians per metre.
-    pub vo_bias_prior_yaw_drift_rad_per_m: f64,
-    /// Prior (1 σ) of the odometry's yaw-rate scale error, fraction.
-    pub vo_bias_prior_yaw_scale: f64,
-    /// Session 2 adds a relocalization to the graph only when an independent estimate of the
-    /// same pose confirms it (the graph's prediction, or the previous result), see
-    /// [`fix_gate`].
-    pub gate_relocalizations: bool,
-    /// Gate: largest horizontal disagreement (m) of two estimates, before the odometry's
-    /// uncertainty between them is added.
-    pub gate_position_m: f64,
-    /// Gate: largest yaw disagreement (degrees), before the odometry's uncertainty.
-    pub gate_yaw_deg: f64,
-    /// Gate: the odometry's uncertainty (in σ) added to the tolerance when the first two
-    /// results confirm each other (no fix in the graph yet); 3 σ afterwards. The first
-    /// submaps are taken while the rover turns on the spot with the odometry's yaw-rate
-    /// error not yet calibrated, which bends consecutive submaps alike by 1–2°, so the
-    /// first pair must agree within the bare tolerance.
-    pub gate_bootstrap_sigmas: f64,
     /// An accepted relocalization off by more than this (m) counts as wrong.
     pub wrong_translation_m: f64,
     /// An accepted relocalization off by more than this (degrees) counts as wrong.
     pub wrong_rotation_deg: f64,
-    /// Both sessions add an absolute pose factor for every frame whose points measured on
-    /// the lander fit its known sides ([`lander_factor`]); session 2 once it knows the prior
-    /// map's frame.
-    pub lander_factors: bool,
-    /// The lander fit.
-    pub lander: lander_factor::LanderFitConfig,
-    /// Boulder fusion (maps and submaps).
-    pub fusion: FusionConfig,
-    /// Self-calibration of the detections' viewpoint bias (sets the fusion's
-    /// `view_bias_size_fraction` from session 1's passes).
-    pub view_bias: view_bias::ViewBiasConfig,
-    /// Relocalization.
-    pub relocalize: RelocalizeConfig,
     /// Rock map from fused boulders.
     pub rock_grid: RockGridConfig,
     /// Terrain-relative height alignment of both sessions' poses before the maps.
     pub terrain_height: terrain_height::TerrainHeightConfig,
-    /// Bundle adjustment of each session's poses and boulders at its end
-    /// ([`boulder_adjustment`]); session 1's map is fused after it.
-    pub boulder_adjustment: boulder_adjustment::BoulderAdjustmentConfig,
+    /// Both sessions' localizers (session 2's fusion takes session 1's calibrated
+    /// viewpoint bias).
+    pub localizer: LocalizerConfig,
 }
 
 impl Default for MissionConfig {
@@ -221,47 +129,13 @@ impl Default for MissionConfig {
             start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
             start_2: [-4.5, 0.0, -std::f64::consts::FRAC_PI_2],
             guess_error_2: [0.8, -0.6, 0.25],
-            relocalize_period_s: 10.0,
-            submap_window_s: 25.0,
-            submap_max_turn_deg: 180.0,
-            submap_min_window_s: 10.0,
-            lost_submap_pose_sigma_m: 0.1,
             prior_map_obstacles: true,
             prior_obstacle_min_observations: 3,
-            loop_closures: true,
-            online_loop_closures: false,
-            loop_closure_gap_s: 30.0,
-            start_map_max_motion_m: 2.0,
-            start_map_max_turn_deg: 90.0,
-            relocalization_information_scale: 1.0,
-            robust_scale: 3.0,
-            vo_translation_sigma_m_per_m: 0.008,
-            vo_yaw_sigma_rad_per_m: 0.0015,
-            vo_yaw_sigma_per_rad_turned: 0.003,
-            gravity_sigma_rad: 0.002,
-            gate_relocalizations: true,
-            gate_position_m: 0.08,
-            gate_yaw_deg: 0.5,
-            gate_bootstrap_sigmas: 0.0,
-            calibrate_odometry: true,
-            calibration_rounds: 2,
-            vo_bias_prior_scale: 0.01,
-            vo_bias_prior_yaw_drift_rad_per_m: 0.0005,
-            vo_bias_prior_yaw_scale: 0.003,
             wrong_translation_m: 0.10,
             wrong_rotation_deg: 1.0,
-            lander_factors: true,
-            lander: lander_factor::LanderFitConfig::default(),
-            // the simulated stereo's noise model is known: weight the views by it
-            fusion: FusionConfig {
-                centroid: CentroidEstimator::StereoWeighted,
-                ..FusionConfig::default()
-            },
-            view_bias: view_bias::ViewBiasConfig::default(),
-            relocalize: RelocalizeConfig::default(),
             rock_grid: RockGridConfig::default(),
             terrain_height: terrain_height::TerrainHeightConfig::default(),
-            boulder_adjustment: boulder_adjustment::BoulderAdjustmentConfig::default(),
+            localizer: LocalizerConfig::default(),
         }
     }
 }
@@ -344,63 +218,14 @@ impl MissionConfig {
         {
             return bad("seconds_per_session and seconds_session_2 must be within (0, 1e5]");
         }
-        let stretch_s = self.view_bias.stretch_s;
-        if !(stretch_s.is_finite() && stretch_s >= 1.0) {
-            return bad("view_bias.stretch_s must be at least 1");
+        if let Err(e) = self.localizer.validate() {
+            return bad(&format!("localizer.{e}"));
         }
-        if !(self.relocalize_period_s.is_finite() && self.relocalize_period_s >= 1.0) {
-            return bad("relocalize_period_s must be at least 1");
-        }
-        if !(self.submap_window_s.is_finite() && self.submap_window_s > 0.0) {
-            return bad("submap_window_s must be positive");
-        }
-        if !(self.submap_min_window_s.is_finite() && self.submap_min_window_s >= 0.0) {
-            return bad("submap_min_window_s must be non-negative");
-        }
-        if !(self.lost_submap_pose_sigma_m.is_finite() && self.lost_submap_pose_sigma_m >= 0.0) {
-            return bad("lost_submap_pose_sigma_m must be non-negative");
-        }
-        if let Err(m) = self.fusion.validate() {
-            return bad(&format!("fusion: {m}"));
-        }
-        if let Err(m) = self.boulder_adjustment.validate() {
-            return bad(&format!("boulder_adjustment: {m}"));
-        }
-        if [self.gravity_sigma_rad, self.gate_bootstrap_sigmas]
+        if [self.wrong_translation_m, self.wrong_rotation_deg]
             .iter()
-            .any(|v| !(v.is_finite() && *v >= 0.0))
+            .any(|v| !(v.is_finite() && *v > 0.0))
         {
-            return bad("gravity_sigma_rad and gate_bootstrap_sigmas must be non-negative");
-        }
-        if !(self.loop_closure_gap_s.is_finite() && self.loop_closure_gap_s >= 0.0) {
-            return bad("loop_closure_gap_s must be non-negative");
-        }
-        let positive = [
-            self.relocalization_information_scale,
-            self.robust_scale,
-            self.start_map_max_motion_m,
-            self.start_map_max_turn_deg,
-            self.submap_max_turn_deg,
-            self.vo_translation_sigma_m_per_m,
-            self.vo_yaw_sigma_rad_per_m,
-            self.vo_yaw_sigma_per_rad_turned,
-            self.gate_position_m,
-            self.gate_yaw_deg,
-            self.vo_bias_prior_scale,
-            self.vo_bias_prior_yaw_drift_rad_per_m,
-            self.vo_bias_prior_yaw_scale,
-            self.wrong_translation_m,
-            self.wrong_rotation_deg,
-            self.lander.half_extent_m,
-            self.lander.max_residual_m,
-            self.lander.max_correction_m,
-            self.lander.max_correction_deg,
-            self.lander.huber_sigma,
-            self.lander.information_scale,
-            self.lander.regularization,
-        ];
-        if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-            return bad("information scale, odometry sigmas and wrong thresholds must be positive");
+            return bad("wrong_translation_m and wrong_rotation_deg must be positive");
         }
         let all = self
             .start_1
@@ -447,16 +272,11 @@ pub fn run_mission_with_progress(
         mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
     // session 2 and the maps fuse boulders with session 1's calibrated viewpoint bias
     let config = &session_1.calibrated(config);
-    let relocalizer = Relocalizer::new(session_1.map.clone(), config.relocalize.clone())?;
     let mut session_2 = lost_session::localize_session(
         &moon,
         config,
-        lost_session::PriorSession {
-            relocalizer: &relocalizer,
-            map: &session_1.map,
-        },
-        start_2,
-        guess_2,
+        &session_1.map,
+        (start_2, guess_2),
         seed.wrapping_mul(2).wrapping_add(1),
         progress,
     )?;
@@ -514,34 +334,27 @@ mod tests {
 
     #[test]
     fn rejects_bad_config() {
+        let mut bad_localizer = MissionConfig::default();
+        bad_localizer.localizer.schedule.relocalize_period_s = 0.0;
+        let mut bad_robust = MissionConfig::default();
+        bad_robust.localizer.factors.robust_scale = -1.0;
+        let mut bad_submap = MissionConfig::default();
+        bad_submap.localizer.submap.pose_sigma_m = -0.1;
+        let mut bad_fusion = MissionConfig::default();
+        bad_fusion.localizer.fusion.pose_sigma_m = f64::NAN;
         for bad in [
             MissionConfig {
                 seconds_per_session: f64::NAN,
                 ..MissionConfig::default()
             },
-            MissionConfig {
-                relocalize_period_s: 0.0,
-                ..MissionConfig::default()
-            },
-            MissionConfig {
-                robust_scale: -1.0,
-                ..MissionConfig::default()
-            },
+            bad_localizer,
+            bad_robust,
             MissionConfig {
                 guess_error_2: [f64::INFINITY, 0.0, 0.0],
                 ..MissionConfig::default()
             },
-            MissionConfig {
-                lost_submap_pose_sigma_m: -0.1,
-                ..MissionConfig::default()
-            },
-            MissionConfig {
-                fusion: FusionConfig {
-                    pose_sigma_m: f64::NAN,
-                    ..FusionConfig::default()
-                },
-                ..MissionConfig::default()
-            },
+            bad_submap,
+            bad_fusion,
         ] {
             assert!(matches!(
                 run_mission(1, &bad),

@@ -1,11 +1,11 @@
 //! The mission report (JSON) and its pictures.
 
-use super::boulder_adjustment::BoulderAdjustmentReport;
 use super::lost_session::LocalizedSession;
 use super::mapping_session::MappedSession;
 use super::maps::MissionMaps;
-use super::trajectory::{odometry_in_world, rmse_m};
+use super::stream::{odometry_in_world, rmse_m};
 use super::MissionConfig;
+use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::mapping::pictures::{height_error_png, rock_map_png, trajectory_png, Polyline};
 use crate::mapping::LacScore;
 use crate::sim::session::SessionLog;

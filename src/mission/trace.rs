@@ -8,7 +8,7 @@ use crate::sim::session::SessionLog;
 use nalgebra::{Isometry3, Point3};
 use segloc_maps::ObjectMap;
 
-use super::trajectory::odometry_in_world;
+use super::stream::odometry_in_world;
 
 /// One camera frame (1 Hz) of a session.
 #[derive(Clone, Debug, PartialEq)]

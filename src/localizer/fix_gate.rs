@@ -22,11 +22,11 @@ pub struct Tolerance {
 }
 
 impl Tolerance {
-    /// The mission's gate (`gate_position_m`, `gate_yaw_deg`).
-    pub fn of_gate(config: &super::MissionConfig) -> Self {
+    /// The configured gate's bare tolerance.
+    pub fn of_gate(config: &super::config::GateConfig) -> Self {
         Self {
-            position_m: config.gate_position_m,
-            yaw_rad: config.gate_yaw_deg.to_radians(),
+            position_m: config.position_m,
+            yaw_rad: config.yaw_deg.to_radians(),
         }
     }
 

@@ -2,10 +2,12 @@
 //! visual odometry between consecutive frames, anchored at the first frame; relocalization
 //! and loop-closure factors are added by the stages that find them.
 
+use super::config::OdometryNoiseConfig;
+use super::frame_log::FrameLog;
 use super::gravity::gravity_information;
 use super::odometry_bias::{estimate_bias, BiasPrior, OdometryBias, OdometryStep, StepWeight};
+use super::LocalizerConfig;
 use crate::graph::{GraphError, PoseGraph, RobustKernel, SolverConfig};
-use crate::sim::session::SessionLog;
 use nalgebra::{Isometry3, Matrix6};
 
 /// Frame id of the prior map (session 1's map) in a session's graph.
@@ -17,13 +19,12 @@ pub const PRIOR_FRAME: u64 = 0;
 pub fn odometry_information(
     distance_m: f64,
     turned_rad: f64,
-    config: &super::MissionConfig,
+    config: &OdometryNoiseConfig,
 ) -> Matrix6<f64> {
     let d = distance_m.max(0.05);
-    let sigma_t = config.vo_translation_sigma_m_per_m * d + 1e-3;
-    let sigma_yaw = config.vo_yaw_sigma_rad_per_m * d
-        + config.vo_yaw_sigma_per_rad_turned * turned_rad.abs()
-        + 1e-4;
+    let sigma_t = config.translation_sigma_m_per_m * d + 1e-3;
+    let sigma_yaw =
+        config.yaw_sigma_rad_per_m * d + config.yaw_sigma_per_rad_turned * turned_rad.abs() + 1e-4;
     let sigma_tilt = 2e-3;
     let mut info = Matrix6::zeros();
     info[(0, 0)] = 1.0 / (sigma_tilt * sigma_tilt);
@@ -106,24 +107,17 @@ impl TrajectoryGraph {
         }
     }
 
-    /// Add the frames of `log` not yet in the graph, with odometry factors; the first is
-    /// fixed at its odometry estimate.
-    pub fn extend(
-        &mut self,
-        log: &SessionLog,
-        config: &super::MissionConfig,
-    ) -> Result<(), GraphError> {
-        while self.frames < log.frames.len() {
+    /// Add the frames of `log` not yet in the graph, with odometry factors (and gravity
+    /// factors on their attitude); the first is fixed at its odometry pose.
+    pub fn extend(&mut self, log: &FrameLog, config: &LocalizerConfig) -> Result<(), GraphError> {
+        while self.frames < log.len() {
             let k = self.frames;
-            let tick = log.frames[k].tick;
-            let Some(t) = log.ticks.get(tick) else {
-                break;
-            };
+            let f = &log.frames[k];
             if k == 0 {
-                self.graph.add_pose(0, t.session_from_rover)?;
+                self.graph.add_pose(0, f.odom_from_rover)?;
                 self.graph.fix(0)?;
             } else {
-                let step = odometry_step(log, log.frames[k - 1].tick, tick);
+                let step = f.step;
                 let z = self.bias.correct(&step);
                 // chain on the optimised previous pose
                 let prev = self
@@ -131,17 +125,17 @@ impl TrajectoryGraph {
                     .pose(k as u64 - 1)
                     .unwrap_or_else(Isometry3::identity);
                 self.graph.add_pose(k as u64, prev * z)?;
-                let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
+                let info =
+                    odometry_information(step.distance_m, step.turned_abs_rad, &config.odometry);
                 self.graph
                     .add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
                 self.steps.push(step);
-                if config.gravity_sigma_rad > 0.0 {
-                    // the logged attitude's roll and pitch are the IMU's gravity direction
-                    let information =
-                        gravity_information(&t.session_from_rover, config.gravity_sigma_rad);
-                    self.graph
-                        .add_prior(k as u64, t.session_from_rover, information)?;
-                    self.gravity.push((k, t.session_from_rover, information));
+                let sigma = config.factors.gravity_sigma_rad;
+                if sigma > 0.0 {
+                    // the attitude's roll and pitch are the IMU's gravity direction
+                    let information = gravity_information(&f.attitude, sigma);
+                    self.graph.add_prior(k as u64, f.attitude, information)?;
+                    self.gravity.push((k, f.attitude, information));
                 }
             }
             self.frames += 1;
@@ -244,21 +238,17 @@ impl TrajectoryGraph {
     /// Estimate the odometry's biases from the optimised trajectory, rebuild the graph with
     /// the odometry corrected by them and re-optimise; `rounds` times (the estimate and the
     /// trajectory are solved in turn). Call after [`TrajectoryGraph::optimize`].
-    pub fn calibrate(
-        &mut self,
-        config: &super::MissionConfig,
-        rounds: usize,
-    ) -> Result<(), GraphError> {
+    pub fn calibrate(&mut self, config: &LocalizerConfig, rounds: usize) -> Result<(), GraphError> {
         let prior = BiasPrior {
-            scale_error: config.vo_bias_prior_scale,
-            yaw_drift_rad_per_m: config.vo_bias_prior_yaw_drift_rad_per_m,
-            yaw_scale_error: config.vo_bias_prior_yaw_scale,
+            scale_error: config.calibration.prior_scale,
+            yaw_drift_rad_per_m: config.calibration.prior_yaw_drift_rad_per_m,
+            yaw_scale_error: config.calibration.prior_yaw_scale,
         };
         let weights: Vec<StepWeight> = self
             .steps
             .iter()
             .map(|s| {
-                let info = odometry_information(s.distance_m, s.turned_abs_rad, config);
+                let info = odometry_information(s.distance_m, s.turned_abs_rad, &config.odometry);
                 StepWeight {
                     yaw: info[(2, 2)],
                     translation: info[(3, 3)],
@@ -282,7 +272,7 @@ impl TrajectoryGraph {
     /// closures summarised ([`super::boulder_adjustment`]).
     pub fn without_loop_closures(
         &self,
-        config: &super::MissionConfig,
+        config: &LocalizerConfig,
     ) -> Result<TrajectoryGraph, GraphError> {
         let mut copy = self.clone();
         copy.extra
@@ -293,7 +283,7 @@ impl TrajectoryGraph {
 
     /// A new graph with the same variables (current estimates), the odometry corrected with
     /// the current bias, and the same relocalizations and loop closures.
-    fn rebuild(&mut self, config: &super::MissionConfig) -> Result<(), GraphError> {
+    fn rebuild(&mut self, config: &LocalizerConfig) -> Result<(), GraphError> {
         let mut graph = PoseGraph::new();
         for k in 0..self.frames {
             let pose = self.pose_or_identity(k);
@@ -304,7 +294,7 @@ impl TrajectoryGraph {
             graph.add_frame(PRIOR_FRAME, frame)?;
         }
         for (i, step) in self.steps.iter().enumerate() {
-            let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
+            let info = odometry_information(step.distance_m, step.turned_abs_rad, &config.odometry);
             let z = self.bias.correct(step);
             graph.add_between(i as u64, i as u64 + 1, z, info, RobustKernel::None)?;
         }
@@ -375,7 +365,7 @@ impl TrajectoryGraph {
     /// One-σ uncertainty the odometry accumulates between frames `a` and `b` (either
     /// order), from the odometry factors' noise model: (horizontal position m, yaw rad). The
     /// position includes the lever of the yaw uncertainty over the distance driven.
-    pub fn odometry_sigma(&self, a: usize, b: usize, config: &super::MissionConfig) -> (f64, f64) {
+    pub fn odometry_sigma(&self, a: usize, b: usize, config: &OdometryNoiseConfig) -> (f64, f64) {
         let (from, to) = (a.min(b), a.max(b));
         let (mut var_t, mut var_yaw, mut path) = (0.0, 0.0, 0.0);
         for step in self.steps.iter().take(to).skip(from) {
@@ -398,12 +388,12 @@ impl TrajectoryGraph {
     /// Frame `k`'s drift correction `prior_from_session`: its optimised pose, in the prior
     /// map's frame when it is known (the odometry frame otherwise), composed with the
     /// inverse of its odometry pose in `log`. `None` for a frame the graph or `log` lacks.
-    pub fn prior_from_session(&self, log: &SessionLog, k: usize) -> Option<Isometry3<f64>> {
+    pub fn prior_from_session(&self, log: &FrameLog, k: usize) -> Option<Isometry3<f64>> {
         let prior_from_odom = self
             .odom_from_prior()
             .map_or_else(Isometry3::identity, |f| f.inverse());
         let odom_from_rover = self.graph.pose(k as u64)?;
-        let session_from_rover = log.ticks.get(log.frames.get(k)?.tick)?.session_from_rover;
+        let session_from_rover = log.frames.get(k)?.odom_from_rover;
         Some(prior_from_odom * odom_from_rover * session_from_rover.inverse())
     }
 
@@ -425,63 +415,14 @@ impl Default for TrajectoryGraph {
     }
 }
 
-/// The measured odometry between two ticks, with the distance and yaw turned (per-tick
-/// sums of the measured increments).
-pub fn odometry_step(log: &SessionLog, a: usize, b: usize) -> OdometryStep {
-    let mut step = OdometryStep {
-        measured: log
-            .odometry_between(a, b)
-            .unwrap_or_else(Isometry3::identity),
-        distance_m: 0.0,
-        turned_rad: 0.0,
-        turned_abs_rad: 0.0,
-    };
-    for t in (a..b).filter_map(|k| log.ticks.get(k + 1)) {
-        let yaw = t.vo_prev_from_cur.rotation.euler_angles().2;
-        step.distance_m += t.vo_prev_from_cur.translation.vector.norm();
-        step.turned_rad += yaw;
-        step.turned_abs_rad += yaw.abs();
-    }
-    step
-}
-
-/// Root-mean-square horizontal-and-vertical position error of `world_from_rover`
-/// estimates (one per frame) against the truth.
-pub fn rmse_m(log: &SessionLog, world_from_rover: &[Isometry3<f64>]) -> f64 {
-    let mut sum = 0.0;
-    let mut n = 0usize;
-    for (f, est) in log.frames.iter().zip(world_from_rover) {
-        if let Some(t) = log.ticks.get(f.tick) {
-            sum += (est.translation.vector - t.world_from_rover.translation.vector).norm_squared();
-            n += 1;
-        }
-    }
-    if n == 0 {
-        0.0
-    } else {
-        (sum / n as f64).sqrt()
-    }
-}
-
-/// The odometry-only estimate of every frame, aligned with the true start
-/// (`world_from_session` at the start applied to the session frame).
-pub fn odometry_in_world(log: &SessionLog) -> Vec<Isometry3<f64>> {
-    let world_from_session = log.world_from_session();
-    log.frames
-        .iter()
-        .filter_map(|f| log.ticks.get(f.tick))
-        .map(|t| world_from_session * t.session_from_rover)
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mission::MissionConfig;
+    use segloc_maps::frames::StreamFrame;
 
     #[test]
     fn odometry_weight_falls_with_distance_and_turning() {
-        let c = MissionConfig::default();
+        let c = OdometryNoiseConfig::default();
         let still = odometry_information(0.0, 0.0, &c);
         let driven = odometry_information(1.0, 0.0, &c);
         let turned = odometry_information(0.0, 1.5, &c);
@@ -493,34 +434,31 @@ mod tests {
 
     #[test]
     fn chain_of_odometry_and_a_relocalization() {
-        use crate::sim::moon::{Moon, MoonConfig};
-        use crate::sim::session::{run_session, SessionConfig};
-        let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
-        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
-        let config = SessionConfig {
-            duration_s: 20.0,
-            start: [x, y, 1.5],
-            ..SessionConfig::default()
-        };
-        let log = run_session(&moon, &config, 3).unwrap();
-        let mission = MissionConfig::default();
+        // 20 frames 0.4 m apart, the odometry 2 % long
+        let mut log = FrameLog::default();
+        for k in 0..20 {
+            let x = 0.4 * 1.02 * k as f64;
+            log.push(&StreamFrame::new(
+                k as f64,
+                Isometry3::translation(x, 0.0, 0.0),
+            ));
+        }
+        let config = LocalizerConfig::default();
         let mut graph = TrajectoryGraph::new();
-        graph.extend(&log, &mission).unwrap();
-        assert_eq!(graph.frames, log.frames.len());
+        graph.extend(&log, &config).unwrap();
+        assert_eq!(graph.frames, 20);
         graph.optimize().unwrap();
-        // odometry alone: the graph reproduces the logged estimate
+        // odometry alone: the graph reproduces it
         let poses = graph.poses_in_prior();
-        let odometry = odometry_in_world(&log);
-        assert!(rmse_m(&log, &poses) - rmse_m(&log, &odometry) < 1e-3);
+        assert!((poses[19].translation.x - 0.4 * 1.02 * 19.0).abs() < 1e-6);
         // a perfect relocalization of the last frame pulls it onto the truth
-        let k = graph.frames - 1;
-        let truth = log.ticks[log.frames[k].tick].world_from_rover;
+        let truth = Isometry3::translation(0.4 * 19.0, 0.0, 0.0);
         let info = Matrix6::identity() * 1e6;
         graph
-            .add_relocalization(k, truth, info, RobustKernel::None)
+            .add_relocalization(19, truth, info, RobustKernel::None)
             .unwrap();
         graph.optimize().unwrap();
         let poses = graph.poses_in_prior();
-        assert!((poses[k].translation.vector - truth.translation.vector).norm() < 0.01);
+        assert!((poses[19].translation.vector - truth.translation.vector).norm() < 0.01);
     }
 }

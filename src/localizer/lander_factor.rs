@@ -6,14 +6,17 @@
 //! side constrains (along a single seen side, and roll, pitch, height) get almost none.
 //! Uses only the measured points and the lander's known geometry.
 
+use super::config::ConfigError;
+use super::frame_log::FrameLog;
 use super::trajectory::TrajectoryGraph;
-use super::MissionConfig;
+use super::LocalizerConfig;
 use crate::graph::{GraphError, RobustKernel};
-use crate::sim::ipex::LANDER_HALF_EXTENT_M;
-use crate::sim::session::SessionLog;
 use crate::sim::stereo_noise::StereoNoiseConfig;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
+
+/// Half-width of the LAC lander's box footprint, metres (the default of the fit).
+pub const LANDER_HALF_EXTENT_M: f64 = 1.5;
 
 /// Parameters of the lander fit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -66,6 +69,28 @@ impl Default for LanderFitConfig {
             information_scale: 1.0,
             regularization: 1e-6,
             stereo: StereoNoiseConfig::default(),
+        }
+    }
+}
+
+impl LanderFitConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let positive = [
+            ("half_extent_m", self.half_extent_m),
+            ("max_residual_m", self.max_residual_m),
+            ("max_correction_m", self.max_correction_m),
+            ("max_correction_deg", self.max_correction_deg),
+            ("huber_sigma", self.huber_sigma),
+            ("information_scale", self.information_scale),
+            ("regularization", self.regularization),
+        ];
+        match positive.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            Some((name, v)) => Err(ConfigError::new(
+                *name,
+                format!("must be positive, not {v}"),
+            )),
+            None => Ok(()),
         }
     }
 }
@@ -225,10 +250,10 @@ fn associate(
 /// [`add_lander_factors`], and the graph re-optimised when any was added: whether one was.
 pub fn add_lander_factors_optimized(
     graph: &mut TrajectoryGraph,
-    log: &SessionLog,
+    log: &FrameLog,
     frames: std::ops::Range<usize>,
     in_prior: bool,
-    config: &MissionConfig,
+    config: &LocalizerConfig,
 ) -> Result<bool, GraphError> {
     let added = add_lander_factors(graph, log, frames, in_prior, config)? > 0;
     if added {
@@ -243,17 +268,17 @@ pub fn add_lander_factors_optimized(
 /// own frame (session 1, whose odometry frame is the world frame). Returns the number added.
 pub fn add_lander_factors(
     graph: &mut TrajectoryGraph,
-    log: &SessionLog,
+    log: &FrameLog,
     frames: std::ops::Range<usize>,
     in_prior: bool,
-    config: &MissionConfig,
+    config: &LocalizerConfig,
 ) -> Result<usize, GraphError> {
     if in_prior && graph.odom_from_prior().is_none() {
         return Ok(0);
     }
     let poses = graph.poses_in_prior();
     let kernel = RobustKernel::Cauchy {
-        c: config.robust_scale,
+        c: config.factors.robust_scale,
     };
     let mut added = 0;
     for k in frames {
@@ -370,57 +395,5 @@ mod tests {
         assert!(fit_lander(&points[..3], &truth, &LanderFitConfig::default()).is_none());
         let far = Isometry3::new(Vector3::new(2.0, 0.0, 0.0), Vector3::zeros()) * truth;
         assert!(fit_lander(&points, &far, &LanderFitConfig::default()).is_none());
-    }
-
-    /// Diagnostic (run with `--ignored --nocapture`): the fit's error against the truth on
-    /// simulated sessions, and its normalised squared error (≈ 3 if the information is right).
-    #[test]
-    #[ignore]
-    fn fit_error_on_simulated_sessions() {
-        use crate::sim::moon::{Moon, MoonConfig};
-        use crate::sim::session::{run_session, SessionConfig};
-        for seed in 1..4 {
-            let moon = Moon::generate(&MoonConfig::default(), seed).unwrap();
-            let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
-            let config = SessionConfig {
-                duration_s: 300.0,
-                start: [x, y, 1.5],
-                ..SessionConfig::default()
-            };
-            let log = run_session(&moon, &config, seed * 2).unwrap();
-            let (mut n, mut sum, mut chi, mut ex, mut ey, mut eyaw) = (0, 0.0, 0.0, 0.0, 0.0, 0.0);
-            for f in &log.frames {
-                let truth = log.ticks[f.tick].world_from_rover;
-                let guess =
-                    Isometry3::new(Vector3::new(0.03, -0.02, 0.0), Vector3::zeros()) * truth;
-                let Some(fit) =
-                    fit_lander(&f.lander_points_rover, &guess, &LanderFitConfig::default())
-                else {
-                    continue;
-                };
-                let e = crate::graph::se3::log(&(truth.inverse() * fit.world_from_rover));
-                let mut e3 = e;
-                e3[0] = 0.0;
-                e3[1] = 0.0;
-                e3[5] = 0.0;
-                chi += (e3.transpose() * fit.information * e3)[0];
-                let d = fit.world_from_rover.translation.vector - truth.translation.vector;
-                sum += d.xy().norm_squared();
-                ex += d.x;
-                ey += d.y;
-                eyaw += e[2];
-                n += 1;
-            }
-            let nf = n as f64;
-            println!(
-                "seed {seed}: {n}/{} frames, rms {:.4} m, mean dx {:.4} dy {:.4} yaw {:.4} deg, chi2/frame {:.2}",
-                log.frames.len(),
-                (sum / nf).sqrt(),
-                ex / nf,
-                ey / nf,
-                (eyaw / nf).to_degrees(),
-                chi / nf
-            );
-        }
     }
 }

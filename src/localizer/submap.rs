@@ -1,29 +1,7 @@
-//! A submap's detections and the frames a fix on it is anchored at: the detections of a
-//! range of frames placed with given poses, and the frame nearest the landmarks a
+//! The frame a fix on a submap is anchored at: the frame nearest the landmarks a
 //! relocalization matched (where the odometry has drifted least relative to them).
 
-use crate::sim::session::SessionLog;
 use nalgebra::{Isometry3, Point3};
-use segloc_maps::DetectionSet;
-
-/// The boulder detections of frames `frames` placed with `poses` (one per frame of the
-/// log, `x_from_rover`), as a detection set in frame `frame_name`.
-pub fn detections_with_poses(
-    log: &SessionLog,
-    poses: &[Isometry3<f64>],
-    frames: std::ops::Range<usize>,
-    session: &str,
-    frame_name: &str,
-) -> DetectionSet {
-    let mut set = DetectionSet::new(session, frame_name, true);
-    for k in frames {
-        let (Some(f), Some(pose)) = (log.frames.get(k), poses.get(k)) else {
-            continue;
-        };
-        set.detections.extend(f.detections(pose));
-    }
-    set
-}
 
 /// The frame in `frames` whose pose (`poses`, one per frame) lies horizontally nearest the
 /// centroid of `points` (the first of `frames` when there are no points).

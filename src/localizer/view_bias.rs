@@ -5,10 +5,9 @@
 //! the rover would do online — then used by every fusion that follows: submaps, loop
 //! closures, the session's map, session 2 and the LAC rock map.
 
-use super::submap::detections_with_poses;
+use super::frame_log::FrameLog;
 use crate::landmarks::size_bias::SizeBiasEvidence;
 use crate::landmarks::FusionConfig;
-use crate::sim::session::SessionLog;
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
@@ -81,7 +80,7 @@ impl ViewBiasCalibration {
     /// repeated calls iterate the estimate as the evidence grows.
     pub fn update(
         &mut self,
-        log: &SessionLog,
+        log: &FrameLog,
         poses: &[Isometry3<f64>],
         now_s: f64,
         fusion: &FusionConfig,
@@ -91,18 +90,16 @@ impl ViewBiasCalibration {
             return;
         }
         let stretch_s = self.config.stretch_s;
-        let last_s = log.frames.last().map_or(0.0, |f| f.time_s);
+        let last_s = log.last_t();
         let guess = self.fraction.unwrap_or(0.0);
         let mut evidence = SizeBiasEvidence::default();
         let mut k = 0usize;
         while (k + 1) as f64 * stretch_s <= now_s + 1e-9 && k as f64 * stretch_s <= last_s {
-            let first = log
-                .frames
-                .partition_point(|f| f.time_s < k as f64 * stretch_s);
+            let first = log.frames.partition_point(|f| f.t < k as f64 * stretch_s);
             let end = log
                 .frames
-                .partition_point(|f| f.time_s < (k + 1) as f64 * stretch_s);
-            let set = detections_with_poses(log, poses, first..end, "stretch", "session");
+                .partition_point(|f| f.t < (k + 1) as f64 * stretch_s);
+            let set = log.detections_with_poses(poses, first..end, "stretch", "session");
             evidence.add(&SizeBiasEvidence::from_detections(
                 &set.detections,
                 fusion,

@@ -37,13 +37,13 @@
 //! session 1 does. The adjusted poses are returned in a graph without the landmarks, so
 //! that the session goes on with the factors it had.
 
+use super::frame_log::FrameLog;
 use super::trajectory::TrajectoryGraph;
 use crate::graph::{GraphError, RobustKernel, SolverConfig};
 use crate::landmarks::cluster::cluster_points;
 use crate::landmarks::estimate::{detection_information, median, stereo_weighted};
 use crate::landmarks::view_bias::corrected;
 use crate::landmarks::FusionConfig;
-use crate::sim::session::SessionLog;
 use nalgebra::{Isometry3, Matrix3, Point3};
 use segloc_maps::Detection;
 use serde::{Deserialize, Serialize};
@@ -166,17 +166,17 @@ struct Added {
 
 /// Place the detections of every frame with `poses`, the viewpoint bias taken out and the
 /// fusion's range gate applied.
-fn place(log: &SessionLog, poses: &[Isometry3<f64>], fusion: &FusionConfig) -> Vec<Placed> {
+fn place(log: &FrameLog, poses: &[Isometry3<f64>], fusion: &FusionConfig) -> Vec<Placed> {
     let mut out = Vec::new();
     for (k, (f, pose)) in log.frames.iter().zip(poses).enumerate() {
         let rover = Point3::from(pose.translation.vector);
-        for b in &f.boulders {
-            let size_m = 2.0 * b.radius_m;
+        for d in &f.detections {
+            let size_m = d.size_m.unwrap_or(0.0);
             let seen = Detection {
                 frame: k as u64,
-                p_world: pose * b.p_rover,
+                p_world: pose * d.p_rover,
                 rover_position: Some(rover),
-                size_m: Some(size_m),
+                size_m: d.size_m,
                 score: None,
             };
             let range = (seen.p_world - rover).xy().norm();
@@ -197,7 +197,7 @@ fn place(log: &SessionLog, poses: &[Isometry3<f64>], fusion: &FusionConfig) -> V
 /// [`adjust`] `graph` in place when `config` enables it; the report of what it did.
 pub fn adjust_in_place(
     graph: &mut TrajectoryGraph,
-    log: &SessionLog,
+    log: &FrameLog,
     fusion: &FusionConfig,
     config: &BoulderAdjustmentConfig,
 ) -> Result<Option<BoulderAdjustmentReport>, GraphError> {
@@ -214,7 +214,7 @@ pub fn adjust_in_place(
 /// poses, and what the last round did.
 pub fn adjust(
     graph: &TrajectoryGraph,
-    log: &SessionLog,
+    log: &FrameLog,
     fusion: &FusionConfig,
     config: &BoulderAdjustmentConfig,
 ) -> Result<(TrajectoryGraph, BoulderAdjustmentReport), GraphError> {
@@ -286,7 +286,7 @@ fn parabola_minimum(f0: f64, h: f64, [below, at, above]: [f64; 3]) -> Option<(f6
 /// from `start`'s values when given (the same boulders: a warm start).
 fn solve_with_boulders(
     graph: &TrajectoryGraph,
-    log: &SessionLog,
+    log: &FrameLog,
     poses: &[Isometry3<f64>],
     clusters: &[Vec<u32>],
     fusion: &FusionConfig,

@@ -1,19 +1,15 @@
 //! Tests of the boulder adjustment.
 
 use super::*;
-use crate::mission::trajectory::rmse_m;
-use crate::mission::MissionConfig;
-use crate::planning::navigator::NavMode;
-use crate::sim::rover::Command;
-use crate::sim::sensors::{BoulderObservation, CameraId};
-use crate::sim::session::{FrameRecord, SessionConfig, TickRecord};
+use crate::localizer::LocalizerConfig;
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
+use segloc_maps::frames::{FrameDetection, StreamFrame};
 
 /// Two laps of a 4 m circle between two rings of boulders (radius 0.1 and 0.25 m),
-/// one frame per tick, detections within 6 m on the face `face_fraction` × size in
+/// one frame per step, detections within 6 m on the face `face_fraction` × size in
 /// front of each centre (no noise), an odometry `scale` long that turns `yaw_rad` too
-/// far every step.
-fn two_laps(scale: f64, yaw_rad: f64, face_fraction: f64) -> SessionLog {
+/// far every step; with the true poses.
+fn two_laps(scale: f64, yaw_rad: f64, face_fraction: f64) -> (FrameLog, Vec<Isometry3<f64>>) {
     let boulders: Vec<Point3<f64>> = (0..24)
         .map(|k| {
             let a = k as f64 * std::f64::consts::TAU / 24.0;
@@ -28,35 +24,21 @@ fn two_laps(scale: f64, yaw_rad: f64, face_fraction: f64) -> SessionLog {
         )
     };
     let steps = 120;
-    let (mut ticks, mut frames) = (Vec::new(), Vec::new());
-    let mut session_from_rover = pose_at(0.0);
+    let (mut log, mut truth) = (FrameLog::default(), Vec::new());
+    let mut odom_from_rover = pose_at(0.0);
     for k in 0..=steps {
         let a = k as f64 * 2.0 * std::f64::consts::TAU / steps as f64;
         let world_from_rover = pose_at(a);
-        let mut vo_prev_from_cur = Isometry3::identity();
         if k > 0 {
             let prev = pose_at((k - 1) as f64 * 2.0 * std::f64::consts::TAU / steps as f64);
             let step = prev.inverse() * world_from_rover;
-            vo_prev_from_cur = Isometry3::from_parts(
+            odom_from_rover *= Isometry3::from_parts(
                 Translation3::from(step.translation.vector * scale),
                 step.rotation * UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_rad),
             );
-            session_from_rover *= vo_prev_from_cur;
         }
-        ticks.push(TickRecord {
-            time_s: k as f64,
-            world_from_rover,
-            session_from_rover,
-            vo_prev_from_cur,
-            gravity_rover: Vector3::z(),
-            command: Command {
-                speed_mps: 0.4,
-                yaw_rate_rps: 0.1,
-            },
-            mode: NavMode::Drive,
-            collision: None,
-        });
-        let seen = boulders
+        let mut frame = StreamFrame::new(k as f64, odom_from_rover);
+        frame.detections = boulders
             .iter()
             .enumerate()
             .map(|(k, b)| {
@@ -67,40 +49,37 @@ fn two_laps(scale: f64, yaw_rad: f64, face_fraction: f64) -> SessionLog {
                 (face, radius_m)
             })
             .filter(|(p, _)| p.coords.xy().norm() < 6.0)
-            .map(|(p_rover, radius_m)| BoulderObservation {
-                camera: CameraId::Front,
+            .map(|(p_rover, radius_m)| FrameDetection {
                 p_rover,
-                radius_m,
-                rock: None,
+                size_m: Some(2.0 * radius_m),
+                cov_rover: None,
             })
             .collect();
-        frames.push(FrameRecord {
-            tick: k,
-            time_s: k as f64,
-            boulders: seen,
-            ground: Vec::new(),
-            lander_points_rover: Vec::new(),
-        });
+        log.push(&frame);
+        truth.push(world_from_rover);
     }
-    SessionLog {
-        seed: 0,
-        config: SessionConfig::default(),
-        ticks,
-        frames,
-        navigation_counts: (0, 0, 0),
-        wall_time_s: 0.0,
-    }
+    (log, truth)
+}
+
+/// Position RMSE of `estimates` against `truth`.
+fn rmse_m(truth: &[Isometry3<f64>], estimates: &[Isometry3<f64>]) -> f64 {
+    let sum: f64 = truth
+        .iter()
+        .zip(estimates)
+        .map(|(t, e)| (t.translation.vector - e.translation.vector).norm_squared())
+        .sum();
+    (sum / truth.len().max(1) as f64).sqrt()
 }
 
 #[test]
 fn the_boulders_undo_the_odometry_drift() {
     // exact detections of the centres, an odometry 3 % long turning 0.1° a step too far
-    let log = two_laps(1.03, 0.0017, 0.0);
-    let mission = MissionConfig::default();
+    let (log, truth) = two_laps(1.03, 0.0017, 0.0);
+    let mission = LocalizerConfig::default();
     let mut graph = TrajectoryGraph::new();
     graph.extend(&log, &mission).unwrap();
     graph.optimize().unwrap();
-    let before = rmse_m(&log, &graph.poses_in_prior());
+    let before = rmse_m(&truth, &graph.poses_in_prior());
     assert!(before > 0.3, "the odometry alone is off by {before} m");
     let fusion = FusionConfig::default();
     // the poses start up to a metre off, more than a cluster radius: the clusters
@@ -116,7 +95,7 @@ fn the_boulders_undo_the_odometry_drift() {
     let report = adjust_in_place(&mut graph, &log, &fusion, &config)
         .unwrap()
         .unwrap();
-    let after = rmse_m(&log, &graph.poses_in_prior());
+    let after = rmse_m(&truth, &graph.poses_in_prior());
     assert!(after < 0.01, "{before} m -> {after} m, {report:?}");
     assert_eq!(report.boulders, 24);
     assert_eq!(report.outliers, 0);
@@ -138,12 +117,12 @@ fn the_boulders_undo_the_odometry_drift() {
 #[test]
 fn the_viewpoint_bias_comes_out_of_the_boulders_seen_from_both_sides() {
     let f = 1.0 / 6.0;
-    let log = two_laps(1.002, 0.0002, f);
-    let mission = MissionConfig::default();
+    let (log, truth) = two_laps(1.002, 0.0002, f);
+    let mission = LocalizerConfig::default();
     let mut graph = TrajectoryGraph::new();
     graph.extend(&log, &mission).unwrap();
     graph.optimize().unwrap();
-    let before = rmse_m(&log, &graph.poses_in_prior());
+    let before = rmse_m(&truth, &graph.poses_in_prior());
     // the fusion starts from a fraction 0.05 short
     let fusion = FusionConfig {
         view_bias_size_fraction: f - 0.05,
@@ -153,7 +132,7 @@ fn the_viewpoint_bias_comes_out_of_the_boulders_seen_from_both_sides() {
     let report = adjust_in_place(&mut graph, &log, &fusion, &config)
         .unwrap()
         .unwrap();
-    let after = rmse_m(&log, &graph.poses_in_prior());
+    let after = rmse_m(&truth, &graph.poses_in_prior());
     let estimate = report.view_bias_size_fraction.unwrap();
     assert!(
         (estimate - f).abs() < 0.01,

@@ -1,0 +1,433 @@
+//! The localizer's configuration: one section per stage, each with its defaults and its
+//! check; printed and loaded as TOML (`segloc localize --print-config`).
+
+use super::boulder_adjustment::BoulderAdjustmentConfig;
+use super::lander_factor::LanderFitConfig;
+use super::view_bias::ViewBiasConfig;
+use crate::landmarks::{CentroidEstimator, FusionConfig};
+use crate::relocalize::RelocalizeConfig;
+use serde::{Deserialize, Serialize};
+
+/// A configuration value out of range: the TOML path of the field and what is wrong.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field}: {problem}")]
+pub struct ConfigError {
+    /// TOML path of the field, e.g. `gate.yaw_deg`.
+    pub field: String,
+    /// What is wrong with its value.
+    pub problem: String,
+}
+
+impl ConfigError {
+    /// The error of `field` with `problem`.
+    pub fn new(field: impl Into<String>, problem: impl Into<String>) -> Self {
+        Self {
+            field: field.into(),
+            problem: problem.into(),
+        }
+    }
+
+    /// The same error under the section `prefix` (`prefix.field`).
+    pub fn within(self, prefix: &str) -> Self {
+        Self {
+            field: format!("{prefix}.{}", self.field),
+            ..self
+        }
+    }
+}
+
+/// `Ok` when every value is finite and positive, else the first offender.
+fn positive(fields: &[(&str, f64)]) -> Result<(), ConfigError> {
+    match fields.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+        Some((name, v)) => Err(ConfigError::new(
+            *name,
+            format!("must be positive, not {v}"),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// `Ok` when every value is finite and non-negative, else the first offender.
+fn non_negative(fields: &[(&str, f64)]) -> Result<(), ConfigError> {
+    match fields.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+        Some((name, v)) => Err(ConfigError::new(
+            *name,
+            format!("must be non-negative, not {v}"),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// When the localizer relocalizes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ScheduleConfig {
+    /// Seconds between relocalization attempts (and loop-closure periods).
+    pub relocalize_period_s: f64,
+}
+
+impl Default for ScheduleConfig {
+    fn default() -> Self {
+        Self {
+            relocalize_period_s: 10.0,
+        }
+    }
+}
+
+impl ScheduleConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !(self.relocalize_period_s.is_finite() && self.relocalize_period_s >= 1.0) {
+            return Err(ConfigError::new(
+                "relocalize_period_s",
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The submap of recent detections that is relocalized.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SubmapConfig {
+    /// Seconds of recent detections in a submap.
+    pub window_s: f64,
+    /// A submap stops (going back in time) once the rover turned this much in it, degrees
+    /// (the odometry's yaw error grows with the angle turned and bends the submap).
+    pub max_turn_deg: f64,
+    /// … but spans at least this many seconds.
+    pub min_window_s: f64,
+    /// The fusion's `pose_sigma_m` (m) of a submap placed by a not yet calibrated odometry
+    /// (against a prior map); see `docs/design/fix-gate.md`.
+    pub pose_sigma_m: f64,
+}
+
+impl Default for SubmapConfig {
+    fn default() -> Self {
+        Self {
+            window_s: 25.0,
+            max_turn_deg: 180.0,
+            min_window_s: 10.0,
+            pose_sigma_m: 0.1,
+        }
+    }
+}
+
+impl SubmapConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive(&[
+            ("window_s", self.window_s),
+            ("max_turn_deg", self.max_turn_deg),
+        ])?;
+        non_negative(&[
+            ("min_window_s", self.min_window_s),
+            ("pose_sigma_m", self.pose_sigma_m),
+        ])
+    }
+}
+
+/// The consistency gate ([`super::fix_gate`]): a relocalization enters the graph only when
+/// an independent estimate of the same pose confirms it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GateConfig {
+    /// Gate relocalizations and loop closures (`false`: every accepted result enters).
+    pub enabled: bool,
+    /// Largest horizontal disagreement of two estimates (m), before the odometry's
+    /// uncertainty between them is added.
+    pub position_m: f64,
+    /// Largest yaw disagreement (degrees), before the odometry's uncertainty.
+    pub yaw_deg: f64,
+    /// The odometry's uncertainty (in σ) added to the tolerance when the first two results
+    /// confirm each other (no fix in the graph yet); 3 σ afterwards.
+    pub bootstrap_sigmas: f64,
+}
+
+impl Default for GateConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            position_m: 0.08,
+            yaw_deg: 0.5,
+            bootstrap_sigmas: 0.0,
+        }
+    }
+}
+
+impl GateConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive(&[("position_m", self.position_m), ("yaw_deg", self.yaw_deg)])?;
+        non_negative(&[("bootstrap_sigmas", self.bootstrap_sigmas)])
+    }
+}
+
+/// The odometry's noise model: the weights of its factors in the pose graph.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OdometryNoiseConfig {
+    /// Translation noise per metre driven, 1 σ.
+    pub translation_sigma_m_per_m: f64,
+    /// Yaw noise per metre driven, 1 σ, radians.
+    pub yaw_sigma_rad_per_m: f64,
+    /// Yaw noise per radian turned, 1 σ.
+    pub yaw_sigma_per_rad_turned: f64,
+}
+
+impl Default for OdometryNoiseConfig {
+    fn default() -> Self {
+        Self {
+            translation_sigma_m_per_m: 0.008,
+            yaw_sigma_rad_per_m: 0.0015,
+            yaw_sigma_per_rad_turned: 0.003,
+        }
+    }
+}
+
+impl OdometryNoiseConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive(&[
+            ("translation_sigma_m_per_m", self.translation_sigma_m_per_m),
+            ("yaw_sigma_rad_per_m", self.yaw_sigma_rad_per_m),
+            ("yaw_sigma_per_rad_turned", self.yaw_sigma_per_rad_turned),
+        ])
+    }
+}
+
+/// Self-calibration of the odometry's biases ([`super::odometry_bias`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CalibrationConfig {
+    /// Estimate the odometry's biases (scale, yaw drift per metre, yaw-rate scale) from the
+    /// fixes and correct the odometry factors and submaps with them.
+    pub enabled: bool,
+    /// Alternations of bias estimate and graph solve per calibration.
+    pub rounds: usize,
+    /// Prior (1 σ) of the scale error, fraction.
+    pub prior_scale: f64,
+    /// Prior (1 σ) of the yaw drift, radians per metre.
+    pub prior_yaw_drift_rad_per_m: f64,
+    /// Prior (1 σ) of the yaw-rate scale error, fraction.
+    pub prior_yaw_scale: f64,
+}
+
+impl Default for CalibrationConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            rounds: 2,
+            prior_scale: 0.01,
+            prior_yaw_drift_rad_per_m: 0.0005,
+            prior_yaw_scale: 0.003,
+        }
+    }
+}
+
+impl CalibrationConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive(&[
+            ("prior_scale", self.prior_scale),
+            ("prior_yaw_drift_rad_per_m", self.prior_yaw_drift_rad_per_m),
+            ("prior_yaw_scale", self.prior_yaw_scale),
+        ])
+    }
+}
+
+/// The factors besides odometry.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FactorConfig {
+    /// Multiplies the relocalizer's information before it enters the graph (< 1: trust the
+    /// submap less, since its odometry drifted within the window).
+    pub relocalization_information_scale: f64,
+    /// Scale (Mahalanobis distance) of the Cauchy kernel on loop-closure, relocalization
+    /// and lander factors.
+    pub robust_scale: f64,
+    /// Gravity factor on every frame's roll and pitch, 1 σ, radians; 0 leaves the tilt to
+    /// the odometry alone (it then drifts).
+    pub gravity_sigma_rad: f64,
+    /// Add an absolute pose factor for every frame whose points measured on the lander fit
+    /// its known sides ([`super::lander_factor`]).
+    pub lander: bool,
+}
+
+impl Default for FactorConfig {
+    fn default() -> Self {
+        Self {
+            relocalization_information_scale: 1.0,
+            robust_scale: 3.0,
+            gravity_sigma_rad: 0.002,
+            lander: true,
+        }
+    }
+}
+
+impl FactorConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive(&[
+            (
+                "relocalization_information_scale",
+                self.relocalization_information_scale,
+            ),
+            ("robust_scale", self.robust_scale),
+        ])?;
+        non_negative(&[("gravity_sigma_rad", self.gravity_sigma_rad)])
+    }
+}
+
+/// Loop closures of a mapping session against its own map.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoopClosureConfig {
+    /// Relocalize recent submaps against the session's own earlier map.
+    pub enabled: bool,
+    /// Also close loops while driving (each period), not only at the end of the session.
+    pub online: bool,
+    /// The earlier map ends this many seconds before the submap starts.
+    pub gap_s: f64,
+    /// The start map holds the frames before the rover moved this far (m) …
+    pub start_map_max_motion_m: f64,
+    /// … or turned this much (degrees) from its start.
+    pub start_map_max_turn_deg: f64,
+}
+
+impl Default for LoopClosureConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            online: false,
+            gap_s: 30.0,
+            start_map_max_motion_m: 2.0,
+            start_map_max_turn_deg: 90.0,
+        }
+    }
+}
+
+impl LoopClosureConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        non_negative(&[("gap_s", self.gap_s)])?;
+        positive(&[
+            ("start_map_max_motion_m", self.start_map_max_motion_m),
+            ("start_map_max_turn_deg", self.start_map_max_turn_deg),
+        ])
+    }
+}
+
+/// Every parameter of the [`super::Localizer`], one section per stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LocalizerConfig {
+    /// When relocalizations are attempted.
+    pub schedule: ScheduleConfig,
+    /// The submaps that are relocalized.
+    pub submap: SubmapConfig,
+    /// The consistency gate of relocalizations and loop closures.
+    pub gate: GateConfig,
+    /// The odometry's noise model.
+    pub odometry: OdometryNoiseConfig,
+    /// The odometry's bias calibration.
+    pub calibration: CalibrationConfig,
+    /// Relocalization, gravity and lander factors.
+    pub factors: FactorConfig,
+    /// Loop closures of a mapping session.
+    pub loop_closures: LoopClosureConfig,
+    /// The lander fit.
+    pub lander: LanderFitConfig,
+    /// Boulder fusion (maps and submaps).
+    pub fusion: FusionConfig,
+    /// Self-calibration of the detections' viewpoint bias (mapping sessions).
+    pub view_bias: ViewBiasConfig,
+    /// Relocalization.
+    pub relocalize: RelocalizeConfig,
+    /// Bundle adjustment of the session's poses and boulders at its end.
+    pub boulder_adjustment: BoulderAdjustmentConfig,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        Self {
+            schedule: ScheduleConfig::default(),
+            submap: SubmapConfig::default(),
+            gate: GateConfig::default(),
+            odometry: OdometryNoiseConfig::default(),
+            calibration: CalibrationConfig::default(),
+            factors: FactorConfig::default(),
+            loop_closures: LoopClosureConfig::default(),
+            lander: LanderFitConfig::default(),
+            // detections carry the rover's position: weight the views by the stereo noise
+            fusion: FusionConfig {
+                centroid: CentroidEstimator::StereoWeighted,
+                ..FusionConfig::default()
+            },
+            view_bias: ViewBiasConfig::default(),
+            relocalize: RelocalizeConfig::default(),
+            boulder_adjustment: BoulderAdjustmentConfig::default(),
+        }
+    }
+}
+
+impl LocalizerConfig {
+    /// Check every section; the error names the TOML path of the field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.schedule.validate().map_err(|e| e.within("schedule"))?;
+        self.submap.validate().map_err(|e| e.within("submap"))?;
+        self.gate.validate().map_err(|e| e.within("gate"))?;
+        self.odometry.validate().map_err(|e| e.within("odometry"))?;
+        self.calibration
+            .validate()
+            .map_err(|e| e.within("calibration"))?;
+        self.factors.validate().map_err(|e| e.within("factors"))?;
+        self.loop_closures
+            .validate()
+            .map_err(|e| e.within("loop_closures"))?;
+        self.lander.validate().map_err(|e| e.within("lander"))?;
+        self.fusion
+            .validate()
+            .map_err(|m| ConfigError::new("fusion", m))?;
+        self.boulder_adjustment
+            .validate()
+            .map_err(|m| ConfigError::new("boulder_adjustment", m))?;
+        let stretch_s = self.view_bias.stretch_s;
+        if !(stretch_s.is_finite() && stretch_s >= 1.0) {
+            return Err(ConfigError::new(
+                "view_bias.stretch_s",
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_round_trips_through_toml_and_is_valid() {
+        let c = LocalizerConfig::default();
+        c.validate().unwrap();
+        let text = toml::to_string(&c).unwrap();
+        let back: LocalizerConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+    }
+
+    #[test]
+    fn errors_name_the_toml_path() {
+        let mut c = LocalizerConfig::default();
+        c.gate.yaw_deg = -1.0;
+        let e = c.validate().unwrap_err();
+        assert_eq!(e.field, "gate.yaw_deg");
+        let mut c = LocalizerConfig::default();
+        c.schedule.relocalize_period_s = 0.0;
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "schedule.relocalize_period_s"
+        );
+    }
+}

@@ -1,0 +1,214 @@
+//! Relocalization against a prior map while driving: every period, the submap of the
+//! recent detections (placed by the bias-corrected odometry) is relocalized against the
+//! prior map; an accepted result is anchored at the frame nearest the landmarks it matched
+//! and waits for the consistency gate ([`super::fix_gate`]) to confirm it.
+
+use super::fix_gate::{agrees, Tolerance};
+use super::frame_log::FrameLog;
+use super::report::{AttemptRecord, AttemptStatus, Measurement};
+use super::submap::{frame_nearest, landmark_positions};
+use super::trajectory::TrajectoryGraph;
+use super::LocalizerConfig;
+use crate::graph::se3;
+use crate::landmarks::{fuse_detections, FusionConfig};
+use crate::relocalize::Relocalizer;
+use nalgebra::{Isometry3, Matrix6};
+
+/// A relocalization the relocalizer accepted, before the gate has confirmed it.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    /// The frame it is anchored at.
+    pub k: usize,
+    /// Its measured pose in the prior map.
+    pub prior_from_rover: Isometry3<f64>,
+    /// Information of the measurement (right perturbation of `prior_from_rover`).
+    pub information: Matrix6<f64>,
+    /// Index of its record among the attempts.
+    pub attempt: usize,
+}
+
+/// The state of the consistency gate of relocalizations against a prior map.
+#[derive(Debug, Default)]
+pub struct PriorGate {
+    /// The last result that was not confirmed, waiting for the next one.
+    pending: Option<Candidate>,
+    /// The latest frame with a relocalization in the graph.
+    pub last_fix_frame: Option<usize>,
+}
+
+impl PriorGate {
+    /// The candidates to add to the graph now (none, this one, or the pending one and this
+    /// one).
+    pub fn admit(
+        &mut self,
+        c: Candidate,
+        graph: &TrajectoryGraph,
+        config: &LocalizerConfig,
+    ) -> Vec<Candidate> {
+        if !config.gate.enabled {
+            return vec![c];
+        }
+        let tolerance = Tolerance::of_gate(&config.gate);
+        let pose = |k: usize| graph.pose_or_identity(k);
+        if let (Some(odom_from_prior), Some(last)) = (graph.odom_from_prior(), self.last_fix_frame)
+        {
+            let predicted = odom_from_prior.inverse() * pose(c.k);
+            let (sigma_m, sigma_yaw) = graph.odometry_sigma(last, c.k, &config.odometry);
+            let widened = tolerance.widened(sigma_m, sigma_yaw, 3.0);
+            if agrees(&predicted, &c.prior_from_rover, &widened) {
+                self.pending = None;
+                return vec![c];
+            }
+        }
+        if let Some(p) = self.pending.take() {
+            let carried = p.prior_from_rover * pose(p.k).inverse() * pose(c.k);
+            let (sigma_m, sigma_yaw) = graph.odometry_sigma(p.k, c.k, &config.odometry);
+            // before the first fix the odometry between the two is still uncalibrated (its
+            // yaw-rate error bends both submaps alike while the rover turns on the spot), so
+            // the first pair must agree more tightly
+            let n_sigma = if self.last_fix_frame.is_none() {
+                config.gate.bootstrap_sigmas
+            } else {
+                3.0
+            };
+            if agrees(
+                &carried,
+                &c.prior_from_rover,
+                &tolerance.widened(sigma_m, sigma_yaw, n_sigma),
+            ) {
+                return vec![p, c];
+            }
+        }
+        self.pending = Some(c);
+        Vec::new()
+    }
+}
+
+/// The first frame of the submap ending at frame `k`: `window_s` back, but stopping once
+/// the rover turned `max_turn_deg` in it (and spanning at least `min_window_s`).
+fn submap_start(log: &FrameLog, k: usize, config: &LocalizerConfig) -> usize {
+    let now_s = log.frames[k].t;
+    let first = log
+        .frames
+        .iter()
+        .position(|f| f.t >= now_s - config.submap.window_s)
+        .unwrap_or(0);
+    // odometry's yaw error grows with the angle turned
+    let mut turned = 0.0;
+    let mut j = k;
+    while j > first {
+        turned += log.frames[j].step.turned_abs_rad;
+        if turned > config.submap.max_turn_deg.to_radians()
+            && now_s - log.frames[j].t >= config.submap.min_window_s
+        {
+            break;
+        }
+        j -= 1;
+    }
+    j
+}
+
+/// The submap's poses in the odometry frame: the odometry chain of `first..=k` with the
+/// current bias estimate taken out, placed at the first frame's odometry pose (only the
+/// shape matters to the relocalizer); roll and pitch stay the frames' own, which the IMU's
+/// gravity fixes (composing the odometry's tilt would let it drift). Index `i` is frame
+/// `i` (frames before `first` hold the identity).
+fn submap_poses(
+    log: &FrameLog,
+    graph: &TrajectoryGraph,
+    first: usize,
+    k: usize,
+) -> Vec<Isometry3<f64>> {
+    let start = log.frames[first].odom_from_rover;
+    let mut odometry = vec![Isometry3::identity(); first];
+    for (i, p) in graph
+        .corrected_odometry(first..k + 1)
+        .into_iter()
+        .enumerate()
+    {
+        let p = start * p;
+        let (roll, pitch, _) = se3::rpy_from_rotation(&log.frames[first + i].attitude.rotation);
+        let (_, _, yaw) = se3::rpy_from_rotation(&p.rotation);
+        odometry.push(Isometry3::from_parts(
+            p.translation,
+            se3::rotation_from_rpy(roll, pitch, yaw),
+        ));
+    }
+    odometry
+}
+
+/// One relocalization of the submap ending at the latest frame against the prior map;
+/// records the attempt in `attempts` and returns the result when the relocalizer accepted
+/// it (recorded as awaiting confirmation by the gate).
+pub fn attempt(
+    log: &FrameLog,
+    config: &LocalizerConfig,
+    relocalizer: &Relocalizer,
+    graph: &TrajectoryGraph,
+    attempts: &mut Vec<AttemptRecord>,
+) -> Option<Candidate> {
+    let k = log.len().checked_sub(1)?;
+    let first = submap_start(log, k, config);
+    let odometry = submap_poses(log, graph, first, k);
+    let set = log.detections_with_poses(&odometry, first..k + 1, "query", "odom");
+    // placed by a barely calibrated odometry: the pose error, not the stereo's, dominates
+    let fusion = FusionConfig {
+        pose_sigma_m: config.submap.pose_sigma_m,
+        ..config.fusion.clone()
+    };
+    let query = fuse_detections(&set, &fusion);
+    let mut record = AttemptRecord::pending(log.frames[k].t, k, query.len());
+    let reloc = match relocalizer.relocalize(&query) {
+        Ok(r) => r,
+        Err(e) => {
+            record.status = AttemptStatus::Refused(format!("error: {e}"));
+            attempts.push(record);
+            return None;
+        }
+    };
+    record.inliers = reloc.inliers.len();
+    record.yaw_sigma_deg = Some(yaw_sigma_deg(&reloc.information));
+    let Some(prior_from_odom) = reloc.prior_from_query else {
+        record.status = AttemptStatus::Refused(
+            reloc
+                .refusal
+                .as_ref()
+                .map_or_else(|| "refused".to_string(), |r| r.to_string()),
+        );
+        attempts.push(record);
+        return None;
+    };
+    // anchor: the frame nearest the matched landmarks (least drift relative to them)
+    let matched = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
+    let k = frame_nearest(&odometry, first..k + 1, &matched);
+    let odom_from_rover = odometry[k];
+    let prior_from_rover = prior_from_odom * odom_from_rover;
+    record.status = AttemptStatus::Unconfirmed(
+        "not confirmed by the pose graph or the next relocalization".into(),
+    );
+    record.measurement = Some(Measurement::Prior {
+        k,
+        prior_from_rover,
+    });
+    attempts.push(record);
+    // information on the right perturbation of prior_from_odom → of prior_from_rover
+    let ad = se3::adjoint(&odom_from_rover);
+    let information =
+        ad.transpose() * reloc.information * ad * config.factors.relocalization_information_scale;
+    Some(Candidate {
+        k,
+        prior_from_rover,
+        information,
+        attempt: attempts.len() - 1,
+    })
+}
+
+/// Standard deviation of the yaw (rotation about z, tangent index 2) implied by an
+/// information matrix, degrees (infinite when it is singular).
+pub fn yaw_sigma_deg(information: &Matrix6<f64>) -> f64 {
+    information
+        .try_inverse()
+        .map(|c| c[(2, 2)])
+        .filter(|v| v.is_finite() && *v >= 0.0)
+        .map_or(f64::INFINITY, |v| v.sqrt().to_degrees())
+}

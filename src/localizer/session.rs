@@ -1,0 +1,471 @@
+//! The [`Localizer`]: the frames of one session in, its pose estimates and events out.
+
+use super::boulder_adjustment::{
+    adjust_in_place, BoulderAdjustmentConfig, BoulderAdjustmentReport,
+};
+use super::frame_log::FrameLog;
+use super::lander_factor::{add_lander_factors, add_lander_factors_optimized};
+use super::loop_closure::{loop_closures, LoopCloser};
+use super::odometry_bias::OdometryBias;
+use super::relocalization::{attempt, PriorGate};
+use super::report::{AttemptRecord, AttemptStatus, FrameOutput, LocalizerEvent};
+use super::trajectory::TrajectoryGraph;
+use super::view_bias::ViewBiasCalibration;
+use super::{FrameInput, LocalizerConfig, LocalizerError};
+use crate::graph::RobustKernel;
+use crate::landmarks::{fuse_detections, FusionConfig};
+use crate::relocalize::Relocalizer;
+use nalgebra::Isometry3;
+use segloc_maps::ObjectMap;
+use std::time::Instant;
+
+/// Frames whose lander factors are added before a mapping session's graph is re-optimised.
+const LANDER_CHUNK_FRAMES: usize = 30;
+
+/// Passes over the whole session of a mapping session's final viewpoint-bias estimate.
+const FINAL_VIEW_BIAS_ITERATIONS: usize = 3;
+
+/// What a finished session produced.
+#[derive(Clone, Debug)]
+pub struct SessionResult {
+    /// Optimised `prior_from_rover` of every frame (a mapping session: its own frame).
+    pub poses: Vec<Isometry3<f64>>,
+    /// The same before the boulder adjustment.
+    pub poses_before_adjustment: Vec<Isometry3<f64>>,
+    /// Index of the first frame whose pose was known in the prior map while driving
+    /// (a mapping session: 0).
+    pub first_fix_frame: Option<usize>,
+    /// The session's boulder map, in the frame of `poses`.
+    pub map: ObjectMap,
+    /// Every relocalization attempt (a mapping session: its loop closures).
+    pub attempts: Vec<AttemptRecord>,
+    /// The odometry's biases as estimated at the end.
+    pub odometry_bias: OdometryBias,
+    /// What the boulder adjustment did (`None`: off).
+    pub adjustment: Option<BoulderAdjustmentReport>,
+    /// A mapping session's viewpoint-bias calibration from its short passes.
+    pub view_bias: Option<ViewBiasCalibration>,
+    /// The viewpoint-bias size fraction the boulder adjustment estimated, if it did (the
+    /// map was fused with it).
+    pub adjusted_view_bias: Option<f64>,
+    /// The fusion the map was made with.
+    pub fusion: FusionConfig,
+}
+
+/// A mapping session's loop closures while it drives.
+struct OnlineClosures {
+    graph: TrajectoryGraph,
+    view_bias: ViewBiasCalibration,
+    closer: LoopCloser,
+    lander_done: usize,
+}
+
+/// What the localizer relocalizes against, and the state of that search.
+struct PriorState {
+    relocalizer: Relocalizer,
+    gate: PriorGate,
+    attempts: Vec<AttemptRecord>,
+    lander_done: usize,
+}
+
+/// The online localizer of one session (see the [module docs](super)).
+pub struct Localizer {
+    config: LocalizerConfig,
+    log: FrameLog,
+    graph: TrajectoryGraph,
+    prior: Option<PriorState>,
+    online: Option<OnlineClosures>,
+    next_attempt_s: f64,
+    first_fix_frame: Option<usize>,
+}
+
+impl Localizer {
+    /// A localizer against `prior_map` (`None`: a mapping session).
+    pub fn new(
+        prior_map: Option<ObjectMap>,
+        config: LocalizerConfig,
+    ) -> Result<Self, LocalizerError> {
+        config.validate()?;
+        let prior = match prior_map {
+            Some(map) => Some(PriorState {
+                relocalizer: Relocalizer::new(map, config.relocalize.clone())?,
+                gate: PriorGate::default(),
+                attempts: Vec::new(),
+                lander_done: 0,
+            }),
+            None => None,
+        };
+        let online = (prior.is_none()
+            && config.loop_closures.enabled
+            && config.loop_closures.online)
+            .then(|| OnlineClosures {
+                graph: TrajectoryGraph::new(),
+                view_bias: ViewBiasCalibration::new(&config.view_bias),
+                closer: LoopCloser::default(),
+                lander_done: 0,
+            });
+        Ok(Self {
+            next_attempt_s: config.schedule.relocalize_period_s,
+            first_fix_frame: prior.is_none().then_some(0),
+            config,
+            log: FrameLog::default(),
+            graph: TrajectoryGraph::new(),
+            prior,
+            online,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &LocalizerConfig {
+        &self.config
+    }
+
+    /// The frames given so far.
+    pub fn frames(&self) -> &FrameLog {
+        &self.log
+    }
+
+    /// Every relocalization attempt so far (a mapping session: its online loop closures).
+    pub fn attempts(&self) -> &[AttemptRecord] {
+        match (&self.prior, &self.online) {
+            (Some(p), _) => &p.attempts,
+            (None, Some(o)) => &o.closer.attempts,
+            (None, None) => &[],
+        }
+    }
+
+    /// The first frame whose pose became known in the prior map's frame.
+    pub fn first_fix_frame(&self) -> Option<usize> {
+        self.first_fix_frame
+    }
+
+    /// Take the next frame: keep it, relocalize when a period has passed, and return the
+    /// current estimate of its pose with what happened.
+    pub fn push_frame(&mut self, input: &FrameInput) -> Result<FrameOutput, LocalizerError> {
+        let started = Instant::now();
+        self.check(input)?;
+        self.log.push(input);
+        let mut events = Vec::new();
+        if input.t + 1e-9 >= self.next_attempt_s {
+            self.next_attempt_s += self.config.schedule.relocalize_period_s;
+            if self.prior.is_some() {
+                self.relocalize(&mut events)?;
+            } else if self.online.is_some() {
+                self.close_loops_online(&mut events)?;
+            }
+        }
+        let frame = self.log.len() - 1;
+        Ok(FrameOutput {
+            frame,
+            prior_from_rover: self.estimate(frame),
+            events,
+            time_ms: started.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// Refuse a frame whose time does not advance or whose values are not finite.
+    fn check(&self, input: &FrameInput) -> Result<(), LocalizerError> {
+        let index = self.log.len();
+        let bad = |problem: String| LocalizerError::Frame {
+            index,
+            t: input.t,
+            problem,
+        };
+        if !input.t.is_finite() {
+            return Err(bad("time is not finite".into()));
+        }
+        if let Some(last) = self.log.frames.last().filter(|f| input.t <= f.t) {
+            return Err(bad(format!(
+                "time does not advance (previous frame at {} s)",
+                last.t
+            )));
+        }
+        let pose = input.odom_from_rover.to_homogeneous();
+        let finite = pose.iter().all(|v| v.is_finite())
+            && input
+                .detections
+                .iter()
+                .all(|d| d.p_rover.coords.iter().all(|v| v.is_finite()))
+            && input
+                .lander_points_rover
+                .iter()
+                .all(|p| p.coords.iter().all(|v| v.is_finite()));
+        if !finite {
+            return Err(bad("a pose or point is not finite".into()));
+        }
+        Ok(())
+    }
+
+    /// One relocalization period against the prior map.
+    fn relocalize(&mut self, events: &mut Vec<LocalizerEvent>) -> Result<(), LocalizerError> {
+        let Some(prior) = self.prior.as_mut() else {
+            return Ok(());
+        };
+        let config = &self.config;
+        self.graph.extend(&self.log, config)?;
+        let before = prior.attempts.len();
+        let candidate = attempt(
+            &self.log,
+            config,
+            &prior.relocalizer,
+            &self.graph,
+            &mut prior.attempts,
+        );
+        events.extend((before..prior.attempts.len()).map(LocalizerEvent::Attempt));
+        let confirmed =
+            candidate.map_or_else(Vec::new, |c| prior.gate.admit(c, &self.graph, config));
+        let mut changed = !confirmed.is_empty();
+        for c in confirmed {
+            let record = &mut prior.attempts[c.attempt];
+            record.status = AttemptStatus::Accepted;
+            let kernel = RobustKernel::Cauchy {
+                c: config.factors.robust_scale,
+            };
+            self.graph
+                .add_relocalization(c.k, c.prior_from_rover, c.information, kernel)?;
+            prior.gate.last_fix_frame = Some(prior.gate.last_fix_frame.map_or(c.k, |f| f.max(c.k)));
+            if self.first_fix_frame.is_none() {
+                self.first_fix_frame = Some(self.log.len() - 1);
+            }
+            events.push(LocalizerEvent::Fix {
+                attempt: c.attempt,
+                frame: c.k,
+                inliers: record.inliers,
+                information: Box::new(c.information),
+            });
+        }
+        if changed {
+            self.graph.optimize()?;
+        }
+        if config.factors.lander && self.graph.odom_from_prior().is_some() {
+            let frames = self.graph.frames;
+            changed |= add_lander_factors_optimized(
+                &mut self.graph,
+                &self.log,
+                prior.lander_done..frames,
+                true,
+                config,
+            )?;
+            prior.lander_done = frames;
+        }
+        if changed {
+            if config.calibration.enabled {
+                self.graph.calibrate(config, config.calibration.rounds)?;
+            }
+            events.push(LocalizerEvent::Reoptimized);
+        }
+        Ok(())
+    }
+
+    /// One period of a mapping session's online loop closures.
+    fn close_loops_online(
+        &mut self,
+        events: &mut Vec<LocalizerEvent>,
+    ) -> Result<(), LocalizerError> {
+        let Some(online) = self.online.as_mut() else {
+            return Ok(());
+        };
+        let config = &self.config;
+        let now = self.next_attempt_s - config.schedule.relocalize_period_s;
+        online.graph.extend(&self.log, config)?;
+        let mut changed = false;
+        if config.factors.lander {
+            let frames = online.graph.frames;
+            let range = online.lander_done..frames;
+            online.lander_done = frames;
+            changed =
+                add_lander_factors_optimized(&mut online.graph, &self.log, range, false, config)?;
+        }
+        let before = online.closer.attempts.len();
+        changed |= online.closer.close_at(
+            now,
+            &self.log,
+            config,
+            &mut online.graph,
+            &mut online.view_bias,
+        )?;
+        events.extend((before..online.closer.attempts.len()).map(LocalizerEvent::Attempt));
+        if changed {
+            events.push(LocalizerEvent::Reoptimized);
+        }
+        Ok(())
+    }
+
+    /// The graph the current estimates come from.
+    fn live_graph(&self) -> &TrajectoryGraph {
+        self.online.as_ref().map_or(&self.graph, |o| &o.graph)
+    }
+
+    /// The current estimate of frame `k`'s pose in the prior map (a mapping session: its
+    /// own frame): its optimised pose when it is in the graph, else the latest optimised
+    /// pose carried forward by the bias-corrected odometry. `None` before the first fix.
+    pub fn estimate(&self, k: usize) -> Option<Isometry3<f64>> {
+        let graph = self.live_graph();
+        let prior_from_odom = if self.prior.is_some() {
+            graph.odom_from_prior()?.inverse()
+        } else {
+            Isometry3::identity()
+        };
+        if k < graph.frames {
+            return Some(prior_from_odom * graph.pose_or_identity(k));
+        }
+        let (base, mut pose) = match graph.frames.checked_sub(1) {
+            Some(last) => (last, graph.pose_or_identity(last)),
+            None => (0, self.log.frames.first()?.odom_from_rover),
+        };
+        for f in self.log.frames.get(base + 1..=k)? {
+            pose *= graph.bias.correct(&f.step);
+        }
+        Some(prior_from_odom * pose)
+    }
+
+    /// The latest drift correction `prior_from_odom`: the latest graph frame's optimised
+    /// pose composed with the inverse of its odometry pose (`None` before the first fix).
+    pub fn prior_from_odom(&self) -> Option<Isometry3<f64>> {
+        let graph = self.live_graph();
+        if self.prior.is_some() {
+            graph.odom_from_prior()?;
+        }
+        graph.prior_from_session(&self.log, graph.frames.checked_sub(1)?)
+    }
+
+    /// A mapping session's online correction of every frame in its graph so far
+    /// (`planner_from_odom` per frame), when it has online loop closures.
+    pub fn online_corrections(&self) -> Option<Vec<Isometry3<f64>>> {
+        let online = self.online.as_ref()?;
+        Some(
+            (0..online.graph.frames)
+                .map_while(|k| online.graph.prior_from_session(&self.log, k))
+                .collect(),
+        )
+    }
+
+    /// End the session: the last frames into the graph, a last solve (with the loop
+    /// closures of a mapping session), the boulder adjustment, and the session's map.
+    pub fn finish(self) -> Result<SessionResult, LocalizerError> {
+        match self.prior {
+            Some(prior) => finish_localized(
+                self.graph,
+                &self.log,
+                prior,
+                self.first_fix_frame,
+                &self.config,
+            ),
+            None => finish_mapping(&self.log, &self.config),
+        }
+    }
+}
+
+/// The end of a session localized against a prior map.
+fn finish_localized(
+    mut graph: TrajectoryGraph,
+    log: &FrameLog,
+    prior: PriorState,
+    first_fix_frame: Option<usize>,
+    config: &LocalizerConfig,
+) -> Result<SessionResult, LocalizerError> {
+    graph.extend(log, config)?;
+    graph.optimize()?;
+    if config.factors.lander && graph.odom_from_prior().is_some() {
+        let frames = graph.frames;
+        add_lander_factors(&mut graph, log, prior.lander_done..frames, true, config)?;
+        graph.optimize()?;
+    }
+    if config.calibration.enabled && graph.num_fixes() > 0 {
+        graph.calibrate(config, config.calibration.rounds)?;
+    }
+    let poses_before_adjustment = graph.poses_in_prior();
+    // a session placed in a prior map keeps the viewpoint bias it was given
+    let adjustment_config = BoulderAdjustmentConfig {
+        estimate_view_bias: false,
+        ..config.boulder_adjustment.clone()
+    };
+    let adjustment = adjust_in_place(&mut graph, log, &config.fusion, &adjustment_config)?;
+    let poses = graph.poses_in_prior();
+    let set = log.detections_with_poses(&poses, 0..log.len(), "session", "prior");
+    Ok(SessionResult {
+        map: fuse_detections(&set, &config.fusion),
+        poses,
+        poses_before_adjustment,
+        first_fix_frame,
+        attempts: prior.attempts,
+        odometry_bias: graph.bias,
+        adjustment,
+        view_bias: None,
+        adjusted_view_bias: None,
+        fusion: config.fusion.clone(),
+    })
+}
+
+/// The end of a mapping session: the whole drive's graph with its lander factors, its loop
+/// closures (closed again with the final viewpoint-bias estimate), the boulder adjustment
+/// and the map.
+fn finish_mapping(
+    log: &FrameLog,
+    config: &LocalizerConfig,
+) -> Result<SessionResult, LocalizerError> {
+    let mut graph = TrajectoryGraph::new();
+    graph.extend(log, config)?;
+    if config.factors.lander {
+        // in time order, a chunk at a time, each placed with the estimate the earlier
+        // chunks corrected (as the rover would online)
+        let mut first = 0;
+        while first < graph.frames {
+            let end = (first + LANDER_CHUNK_FRAMES).min(graph.frames);
+            add_lander_factors_optimized(&mut graph, log, first..end, false, config)?;
+            first = end;
+        }
+    }
+    let closures = config.loop_closures.enabled;
+    let before_closures = config.view_bias.reprocess.then(|| graph.clone());
+    let mut view_bias = ViewBiasCalibration::new(&config.view_bias);
+    let mut attempts = if closures {
+        loop_closures(log, config, &mut graph, &mut view_bias)?
+    } else {
+        Vec::new()
+    };
+    graph.optimize()?;
+    // the whole session, iterated (each pass clusters with the previous estimate)
+    let end_s = log.last_t() + config.view_bias.stretch_s;
+    let closed = graph.poses_in_prior();
+    for _ in 0..FINAL_VIEW_BIAS_ITERATIONS {
+        view_bias.update(log, &closed, end_s, &config.fusion);
+    }
+    if let (true, Some(fraction), Some(fresh)) = (closures, view_bias.fraction(), before_closures) {
+        // the closures before the estimate existed were made with the bias left in: close
+        // every loop again with the final estimate, as the session ends
+        graph = fresh;
+        let mut fixed = view_bias.fixed_at(fraction);
+        attempts = loop_closures(log, config, &mut graph, &mut fixed)?;
+        graph.optimize()?;
+    }
+    let fusion = view_bias.fusion(&config.fusion);
+    let poses_before_adjustment = graph.poses_in_prior();
+    if config.boulder_adjustment.runs() {
+        // the boulders are the evidence the loop closures summarised: counted once, and a
+        // wrong closure cannot bend the adjusted trajectory
+        graph = graph.without_loop_closures(config)?;
+    }
+    let adjustment = adjust_in_place(&mut graph, log, &fusion, &config.boulder_adjustment)?;
+    // the adjustment's estimate of the viewpoint bias, from every pass, replaces the
+    // short-pass one for the map and everything after it
+    let adjusted_view_bias = adjustment.as_ref().and_then(|a| a.view_bias_size_fraction);
+    let fusion = FusionConfig {
+        view_bias_size_fraction: adjusted_view_bias.unwrap_or(fusion.view_bias_size_fraction),
+        ..fusion
+    };
+    let poses = graph.poses_in_prior();
+    let set = log.detections_with_poses(&poses, 0..log.len(), "session", "world");
+    Ok(SessionResult {
+        map: fuse_detections(&set, &fusion),
+        poses,
+        poses_before_adjustment,
+        first_fix_frame: Some(0),
+        attempts,
+        odometry_bias: graph.bias,
+        adjustment,
+        view_bias: Some(view_bias),
+        adjusted_view_bias,
+        fusion,
+    })
+}
