@@ -17,6 +17,7 @@ pub mod eval;
 pub mod font;
 pub mod graph;
 pub mod io;
+pub mod ipex;
 pub mod landmarks;
 pub mod localizer;
 pub mod mapping;

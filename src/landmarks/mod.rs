@@ -3,17 +3,19 @@
 //! A session yields many noisy detections of each boulder (one a second while it is in
 //! view), a few spurious ones, and some boulders seen only once or twice.
 //! [`fuse_detections`] clusters them ([`cluster`]) and turns each cluster into a landmark
-//! with a robust centroid and a covariance ([`estimate`]).
+//! with a robust centroid and a covariance ([`estimate`]), weighing each detection by the
+//! stereo pair's noise model ([`stereo_noise`]).
 
 pub mod cluster;
 pub mod estimate;
 pub mod size_bias;
+pub mod stereo_noise;
 pub mod view_bias;
 
-use crate::sim::stereo_noise::StereoNoiseConfig;
 pub use estimate::CentroidEstimator;
 use segloc_maps::{Detection, DetectionSet, ObjectMap};
 use serde::{Deserialize, Serialize};
+use stereo_noise::StereoNoiseConfig;
 
 /// Parameters of the detection-to-landmark fusion stage.
 ///

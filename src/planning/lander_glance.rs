@@ -7,8 +7,8 @@
 //! ([`crate::mission::lander_factor`]). Turning on the spot sweeps no new ground, so a glance
 //! is always collision-free.
 
+use crate::planning::kinematics::{wrap_angle, Command};
 use crate::planning::Pose2;
-use crate::sim::rover::{wrap_angle, Command};
 use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
 

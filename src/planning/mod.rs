@@ -4,13 +4,15 @@
 //! machine around it ([`navigator`]: waypoint sequencing, point turns, stall detection and a
 //! backup manoeuvre, and [`lander_glance`]: turning to look at the lander for an absolute
 //! fix), with [`visibility`] keeping track of the ground the cameras have
-//! seen (unseen ground counts as blocked).
+//! seen (unseen ground counts as blocked). The rover it plans for is the differential drive
+//! of [`kinematics`]: velocity commands, drive limits and the planar state they integrate.
 //!
 //! Everything here works in the rover's *session frame* (the frame its odometry estimate
 //! lives in); waypoints and the lander are given in the *nav frame* (what the rover believes
 //! is the world frame) and mapped through `session_from_nav`.
 
 pub mod arc_planner;
+pub mod kinematics;
 pub mod lander_glance;
 pub mod navigator;
 pub mod obstacles;

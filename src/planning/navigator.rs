@@ -7,12 +7,12 @@
 //! ([`crate::planning::route`]) and steers along it; a waypoint without a route is skipped.
 
 use crate::planning::arc_planner::{ArcPlannerConfig, LanderBox, Scene};
+use crate::planning::kinematics::{wrap_angle, Command};
 use crate::planning::lander_glance::{GlanceConfig, GlanceStep, LanderGlance};
 use crate::planning::obstacles::ObstacleMemory;
 use crate::planning::route::{plan_route, Route, RouteConfig};
 use crate::planning::visibility::SeenGrid;
 use crate::planning::Pose2;
-use crate::sim::rover::{wrap_angle, Command};
 use nalgebra::{Isometry2, Point2, Vector2};
 use serde::{Deserialize, Serialize};
 
@@ -77,7 +77,7 @@ impl Default for NavigatorConfig {
             require_seen_ground: true,
             commit_after_scan_s: 4.0,
             waypoint_timeout_s: 30.0,
-            lander_half_extent_m: crate::sim::ipex::LANDER_HALF_EXTENT_M,
+            lander_half_extent_m: crate::ipex::LANDER_HALF_EXTENT_M,
             route: RouteConfig::default(),
             glance: GlanceConfig::default(),
         }

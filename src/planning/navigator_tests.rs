@@ -1,8 +1,8 @@
 //! Tests of the navigator.
 
 use super::*;
+use crate::planning::kinematics::{RoverConfig, RoverState};
 use crate::planning::obstacles::ObstacleConfig;
-use crate::sim::rover::{RoverConfig, RoverState};
 
 fn drive(
     nav: &mut Navigator,

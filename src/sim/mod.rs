@@ -9,17 +9,23 @@
 //!   [`visual_odometry`] and the IMU's gravity direction;
 //! - [`session`]: one driving session with the planner ([`crate::planning`]), logged in a
 //!   [`session_log::SessionLog`].
+//!
+//! [`ipex`] and [`stereo_noise`] live in lower layers (the rover's geometry in
+//! [`crate::ipex`], the stereo noise model with the landmarks that weigh detections by it in
+//! [`crate::landmarks::stereo_noise`]); they are re-exported here so that `sim::ipex::…` and
+//! `sim::stereo_noise::…` keep working. See ARCHITECTURE.md.
 
 pub mod boulder_field;
 pub mod crater;
-pub mod ipex;
 pub mod moon;
 pub mod rover;
 pub mod sensors;
 pub mod session;
 pub mod session_config;
 pub mod session_log;
-pub mod stereo_noise;
 pub mod value_noise;
 pub mod visual_odometry;
 pub mod world_rays;
+
+pub use crate::ipex;
+pub use crate::landmarks::stereo_noise;

@@ -2,8 +2,12 @@
 //! σ_z = z² σ_d / (f B) for a disparity error σ_d (pixels), focal length f (pixels) and
 //! baseline B; the triangulated point slides along its viewing ray. Across the ray the error
 //! is the pixel error scaled by depth, σ = z σ_px / f.
+//!
+//! The model belongs to the measurements: landmark fusion weighs detections by it
+//! ([`super::estimate::stereo_weighted`]) and the simulator draws its noisy detections from
+//! it (`sim::sensors`, which reaches it through the re-export `sim::stereo_noise`).
 
-use crate::sim::ipex::{FOCAL_PX, STEREO_BASELINE_M};
+use crate::ipex::{FOCAL_PX, STEREO_BASELINE_M};
 use nalgebra::Vector3;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -38,7 +42,7 @@ impl StereoNoiseConfig {
     /// Depth error (1 σ) at `depth_m`: z² σ_d / (f B).
     ///
     /// ```
-    /// use segloc::sim::stereo_noise::StereoNoiseConfig;
+    /// use segloc::landmarks::stereo_noise::StereoNoiseConfig;
     /// let s = StereoNoiseConfig::default();
     /// // 5 m away: 25 · 0.3 / (914.015 · 0.162) ≈ 5 cm
     /// assert!((s.depth_sigma_m(5.0) - 0.0507).abs() < 1e-3);

@@ -1,4 +1,10 @@
-//! IPEX rover and camera geometry used by the simulation.
+//! IPEX rover and camera geometry: the rover's drive limits and wheel layout, the stereo
+//! cameras, the lander's size and the site's bounds.
+//!
+//! A leaf module (it imports nothing) because several layers describe the same vehicle:
+//! the stereo noise model of the landmarks ([`crate::landmarks::stereo_noise`]), the
+//! planner's drive limits and lander box ([`crate::planning`]) and the simulator
+//! ([`crate::sim`], which re-exports this module as `sim::ipex`).
 //!
 //! The numbers come from `lac-images/ipex_geometry.json` and `README.md` in the shared data
 //! folder (`$SEGLOC_DATA`), the Lunar Autonomy Challenge's description of the IPEX rover:
