@@ -66,7 +66,7 @@ pub const CY_PX: f64 = 360.0;
 
 /// Lander half-width in x and y, metres: the fiducial groups sit at ±1.033 m
 /// (ipex_geometry.json "lander"), so the body is about 3 m × 3 m with its legs.
-pub const LANDER_HALF_EXTENT_M: f64 = crate::localizer::lander_factor::LANDER_HALF_EXTENT_M;
+pub const LANDER_HALF_EXTENT_M: f64 = 1.5;
 /// Lander height above the ground, metres (fiducials reach 0.894 + 0.339/2; the body and
 /// antenna mast go higher).
 pub const LANDER_HEIGHT_M: f64 = 2.5;

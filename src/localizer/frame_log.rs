@@ -29,9 +29,9 @@ pub struct KeptFrame {
 /// Roll and pitch of a rover whose IMU measures `gravity_rover` (any scale; the rover's z
 /// axis points up, so gravity at rest is −z).
 pub fn roll_pitch_from_gravity(gravity_rover: &Vector3<f64>) -> (f64, f64) {
-    let up = -gravity_rover;
-    let roll = up.y.atan2(up.z);
-    let pitch = (-up.x).atan2((up.y * up.y + up.z * up.z).sqrt());
+    let g = gravity_rover;
+    let roll = (-g.y).atan2(-g.z);
+    let pitch = g.x.atan2(g.y.hypot(g.z));
     (roll, pitch)
 }
 

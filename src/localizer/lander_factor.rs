@@ -11,12 +11,10 @@ use super::frame_log::FrameLog;
 use super::trajectory::TrajectoryGraph;
 use super::LocalizerConfig;
 use crate::graph::{GraphError, RobustKernel};
-use crate::sim::stereo_noise::StereoNoiseConfig;
+pub use crate::ipex::LANDER_HALF_EXTENT_M;
+use crate::landmarks::stereo_noise::StereoNoiseConfig;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
-
-/// Half-width of the LAC lander's box footprint, metres (the default of the fit).
-pub const LANDER_HALF_EXTENT_M: f64 = 1.5;
 
 /// Parameters of the lander fit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -94,12 +94,7 @@ fn planar_part(pose: &Isometry3<f64>) -> Isometry3<f64> {
     )
 }
 
-/// Roll and pitch of the rover from the gravity it measures (rover frame).
-pub fn roll_pitch_from_gravity(g: &Vector3<f64>) -> (f64, f64) {
-    let roll = (-g.y).atan2(-g.z);
-    let pitch = g.x.atan2(g.y.hypot(g.z));
-    (roll, pitch)
-}
+pub use crate::localizer::frame_log::roll_pitch_from_gravity;
 
 impl<'a> SessionSim<'a> {
     /// Set up a session on `moon` (tick 0 logged: the rover at its start, one camera frame).
