@@ -42,9 +42,7 @@ use crate::sim::moon::Moon;
 use crate::sim::rover::{Command, RoverState};
 use crate::sim::sensors::{cameras, observe, observe_far};
 use crate::sim::visual_odometry::{gravity_in_rover, VisualOdometry};
-use nalgebra::{
-    Isometry2, Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector2, Vector3,
-};
+use nalgebra::{Isometry2, Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector2};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
