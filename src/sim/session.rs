@@ -422,6 +422,7 @@ pub fn run_session(
 mod tests {
     use super::*;
     use crate::sim::moon::MoonConfig;
+    use nalgebra::Vector3;
 
     #[test]
     fn gravity_gives_roll_and_pitch() {
