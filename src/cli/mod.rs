@@ -8,10 +8,12 @@ mod detect;
 mod eval;
 mod graph;
 mod grid;
+mod localize;
 mod map;
 mod mission;
 mod relocalize;
 mod sim;
+mod sim_export;
 mod sim_field;
 
 use anyhow::{Context, Result};
@@ -40,6 +42,9 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Find `prior_from_query` between two maps (map files or detection / traverse CSVs).
     Relocalize(relocalize::RelocalizeArgs),
+    /// A recorded drive (frames file) through the online localizer, against a prior map or
+    /// as a mapping session: the trajectory as TUM, the session's map with `--map-out`.
+    Localize(localize::LocalizeArgs),
     /// Build and inspect object maps.
     #[command(subcommand)]
     Map(map::MapCommand),
@@ -72,6 +77,7 @@ pub fn run(cli: Cli) -> Result<i32> {
     match cli.command {
         Command::Demo(args) => demo::run(&args, &config, cli.config.is_some()),
         Command::Relocalize(args) => relocalize::run(&args, &config),
+        Command::Localize(args) => localize::run(&args),
         Command::Map(cmd) => map::run(&cmd, &config),
         Command::Eval(cmd) => eval::run(&cmd, &config),
         Command::Bench(cmd) => bench::run(&cmd, &config),

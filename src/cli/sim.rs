@@ -29,12 +29,16 @@ pub enum SimCommand {
     /// A generated boulder field seen by two sessions, fused into maps and relocalized:
     /// writes detection CSVs and maps to play with.
     Field(super::sim_field::FieldArgs),
+    /// A session of the mission as a recorded drive: the frames file, its true trajectory
+    /// (TUM) and session 1's map, for `segloc localize`.
+    Export(super::sim_export::ExportArgs),
 }
 
 /// Run a `sim` subcommand; exit code 0, or 2 on bad input.
 pub fn run(command: &SimCommand, relocalize: &RelocalizeConfig) -> Result<i32> {
     match command {
         SimCommand::Field(args) => super::sim_field::run(args, relocalize),
+        SimCommand::Export(args) => super::sim_export::run(args),
         SimCommand::Session {
             seed,
             seconds,

@@ -373,6 +373,24 @@ impl Default for LocalizerConfig {
 }
 
 impl LocalizerConfig {
+    /// This configuration for a session against `prior`: a map a localizer made records the
+    /// viewpoint-bias size fraction its boulders were fused with (the note
+    /// [`super::VIEW_BIAS_NOTE`], which a mapping session calibrates), and the
+    /// query's detections must be corrected alike, or every landmark of the two maps sits
+    /// a sixth of its size apart along the lines of sight. Without the note, unchanged.
+    pub fn calibrated_for(&self, prior: &segloc_maps::ObjectMap) -> Self {
+        let fraction = prior
+            .notes
+            .get(super::session::VIEW_BIAS_NOTE)
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|f| f.is_finite() && (0.0..=0.5).contains(f));
+        let mut config = self.clone();
+        if let Some(f) = fraction {
+            config.fusion.view_bias_size_fraction = f;
+        }
+        config
+    }
+
     /// Check every section; the error names the TOML path of the field.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.schedule.validate().map_err(|e| e.within("schedule"))?;

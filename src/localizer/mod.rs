@@ -52,7 +52,7 @@ mod session;
 pub use config::{ConfigError, LocalizerConfig};
 pub use report::{AttemptRecord, AttemptStatus, FrameOutput, LocalizerEvent, Measurement};
 pub use segloc_maps::frames::{FrameDetection, FramePath, StreamFrame as FrameInput};
-pub use session::{Localizer, SessionResult};
+pub use session::{Localizer, SessionResult, VIEW_BIAS_NOTE};
 
 use crate::graph::GraphError;
 use crate::relocalize::RelocalizeError;

@@ -25,6 +25,10 @@ const LANDER_CHUNK_FRAMES: usize = 30;
 /// Passes over the whole session of a mapping session's final viewpoint-bias estimate.
 const FINAL_VIEW_BIAS_ITERATIONS: usize = 3;
 
+/// The note of a session's map that records the viewpoint-bias size fraction its boulders
+/// were fused with ([`LocalizerConfig::calibrated_for`]).
+pub const VIEW_BIAS_NOTE: &str = "view_bias_size_fraction";
+
 /// What a finished session produced.
 #[derive(Clone, Debug)]
 pub struct SessionResult {
@@ -383,8 +387,13 @@ fn finish_localized(
     let adjustment = adjust_in_place(&mut graph, log, &config.fusion, &adjustment_config)?;
     let poses = graph.poses_in_prior();
     let set = log.detections_with_poses(&poses, 0..log.len(), "session", "prior");
+    let mut map = fuse_detections(&set, &config.fusion);
+    map.notes.insert(
+        VIEW_BIAS_NOTE.into(),
+        format!("{:?}", config.fusion.view_bias_size_fraction),
+    );
     Ok(SessionResult {
-        map: fuse_detections(&set, &config.fusion),
+        map,
         poses,
         poses_before_adjustment,
         first_fix_frame,
@@ -456,8 +465,13 @@ fn finish_mapping(
     };
     let poses = graph.poses_in_prior();
     let set = log.detections_with_poses(&poses, 0..log.len(), "session", "world");
+    let mut map = fuse_detections(&set, &fusion);
+    map.notes.insert(
+        VIEW_BIAS_NOTE.into(),
+        format!("{:?}", fusion.view_bias_size_fraction),
+    );
     Ok(SessionResult {
-        map: fuse_detections(&set, &fusion),
+        map,
         poses,
         poses_before_adjustment,
         first_fix_frame: Some(0),

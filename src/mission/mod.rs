@@ -244,6 +244,54 @@ impl MissionConfig {
     }
 }
 
+/// The two sessions of a mission, driven.
+pub struct Sessions {
+    /// The synthetic moon.
+    pub moon: Moon,
+    /// The configuration with session 1's calibrated fusion (what session 2 ran with).
+    pub config: MissionConfig,
+    /// Session 1: mapped from a known start.
+    pub one: mapping_session::MappedSession,
+    /// Session 2: localized against session 1's map.
+    pub two: lost_session::LocalizedSession,
+}
+
+/// Drive both sessions of the mission on the moon of `seed` (no maps, no score).
+pub fn drive_sessions(
+    seed: u64,
+    config: &MissionConfig,
+    progress: &dyn MissionProgress,
+) -> Result<Sessions, MissionError> {
+    config.validate()?;
+    let moon = Moon::generate(&config.moon, seed)?;
+    let clear = |s: [f64; 3], session: &SessionConfig| {
+        let min_rock = session.collision_min_rock_radius_m;
+        let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
+        [x, y, s[2]]
+    };
+    let start_1 = clear(config.start_1, &config.session);
+    let start_2 = clear(config.start_2, config.session_2());
+    let e = config.guess_error_2;
+    let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
+    let one = mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
+    // session 2 and the maps fuse boulders with session 1's calibrated viewpoint bias
+    let config = one.calibrated(config);
+    let two = lost_session::localize_session(
+        &moon,
+        &config,
+        &one.map,
+        (start_2, guess_2),
+        seed.wrapping_mul(2).wrapping_add(1),
+        progress,
+    )?;
+    Ok(Sessions {
+        moon,
+        config,
+        one,
+        two,
+    })
+}
+
 /// Run the two-session mission on the moon of `seed`.
 pub fn run_mission(seed: u64, config: &MissionConfig) -> Result<MissionOutput, MissionError> {
     run_mission_with_progress(seed, config, &Silent)
@@ -255,31 +303,14 @@ pub fn run_mission_with_progress(
     config: &MissionConfig,
     progress: &dyn MissionProgress,
 ) -> Result<MissionOutput, MissionError> {
-    config.validate()?;
     let started = Instant::now();
-    let moon = Moon::generate(&config.moon, seed)?;
-    let clear = |s: [f64; 3], session: &SessionConfig| {
-        let min_rock = session.collision_min_rock_radius_m;
-        let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
-        [x, y, s[2]]
-    };
-    let start_1 = clear(config.start_1, &config.session);
-    let start_2 = clear(config.start_2, config.session_2());
-    let e = config.guess_error_2;
-    let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
-
-    let mut session_1 =
-        mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
-    // session 2 and the maps fuse boulders with session 1's calibrated viewpoint bias
-    let config = &session_1.calibrated(config);
-    let mut session_2 = lost_session::localize_session(
-        &moon,
+    let Sessions {
+        moon,
         config,
-        &session_1.map,
-        (start_2, guess_2),
-        seed.wrapping_mul(2).wrapping_add(1),
-        progress,
-    )?;
+        one: mut session_1,
+        two: mut session_2,
+    } = drive_sessions(seed, config, progress)?;
+    let config = &config;
     progress.update(MissionStage::Mapping);
     let dz = terrain_height::height_corrections(
         &[

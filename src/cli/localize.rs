@@ -1,0 +1,230 @@
+//! `segloc localize`: a recorded drive (a frames file) through the online localizer, against
+//! a prior session's map or, without one, as a mapping session; writes the trajectory as a
+//! TUM file and, with `--map-out`, the session's boulder map.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use segloc::io::inputs::load_map;
+use segloc::localizer::{FrameOutput, Localizer, LocalizerConfig, SessionResult};
+use segloc_maps::frames::read_frames;
+use segloc_maps::tum::write_tum;
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `segloc localize`.
+#[derive(Args, Debug)]
+pub struct LocalizeArgs {
+    /// The drive: a frames file (JSON Lines, maps/FORMAT.md "Frames file").
+    #[arg(long, value_name = "FILE", required_unless_present = "print_config")]
+    frames: Option<PathBuf>,
+    /// The prior session's map (map file, detections CSV or LunarLoc traverse CSV); without
+    /// it the drive is a mapping session anchored at its first frame.
+    #[arg(long, value_name = "MAP")]
+    prior: Option<PathBuf>,
+    /// Where to write the trajectory `prior_from_rover` (TUM: `t tx ty tz qx qy qz qw`).
+    #[arg(
+        short,
+        long,
+        value_name = "FILE",
+        required_unless_present = "print_config"
+    )]
+    output: Option<PathBuf>,
+    /// Also write the session's boulder map (in the prior's frame when there is a prior).
+    #[arg(long, value_name = "FILE")]
+    map_out: Option<PathBuf>,
+    /// Write every frame, also those before the first fix (placed by the final solve).
+    #[arg(long)]
+    all_frames: bool,
+    /// Write the estimates the localizer gave while driving, not the final solve's.
+    #[arg(long)]
+    online: bool,
+    /// The localizer's configuration (TOML, as `--print-config` prints it).
+    #[arg(long, value_name = "FILE")]
+    localizer_config: Option<PathBuf>,
+    /// Print the localizer's configuration (TOML) and exit.
+    #[arg(long)]
+    print_config: bool,
+    /// Print one JSON summary object.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Run `segloc localize`: 0 success, 1 no fix against the prior map, 2 bad input.
+pub fn run(args: &LocalizeArgs) -> Result<i32> {
+    let config = load_localizer_config(args.localizer_config.as_deref())?;
+    if args.print_config {
+        print!("{}", toml::to_string_pretty(&config)?);
+        return Ok(0);
+    }
+    let (Some(frames_path), Some(output)) = (&args.frames, &args.output) else {
+        bail!("--frames and --output are required");
+    };
+    let file = read_frames(frames_path)?;
+    for warning in &file.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let prior = match &args.prior {
+        Some(path) => Some(
+            load_map(path, &config.fusion)
+                .with_context(|| format!("prior map {}", path.display()))?
+                .0,
+        ),
+        None => None,
+    };
+    let mapping = prior.is_none();
+    // the query's detections are corrected as the prior's were
+    let config = match &prior {
+        Some(map) => config.calibrated_for(map),
+        None => config,
+    };
+    let mut localizer = Localizer::new(prior, config.clone())?;
+    let mut outputs = Vec::with_capacity(file.frames.len());
+    for frame in &file.frames {
+        let out = localizer
+            .push_frame(frame)
+            .with_context(|| format!("{}", frames_path.display()))?;
+        outputs.push(out);
+    }
+    let first_fix = localizer.first_fix_frame();
+    let session = localizer.finish()?;
+    let summary = summary(&file.frames, &outputs, &session, first_fix, &config);
+    let Some(first_fix) = first_fix else {
+        report(args, &summary, "no fix: nothing written")?;
+        return Ok(1);
+    };
+    let times: Vec<f64> = file.frames.iter().map(|f| f.t).collect();
+    let poses = trajectory(&times, &outputs, &session, args, first_fix);
+    write_tum(output, &poses)?;
+    if let Some(path) = &args.map_out {
+        segloc_maps::write_map(&session.map, path)?;
+    }
+    let what = if mapping {
+        "mapping session"
+    } else {
+        "localized"
+    };
+    report(args, &summary, what)?;
+    Ok(0)
+}
+
+/// The configuration from `path`, or the defaults; the error names the file and the field.
+fn load_localizer_config(path: Option<&Path>) -> Result<LocalizerConfig> {
+    let Some(path) = path else {
+        return Ok(LocalizerConfig::default());
+    };
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let config: LocalizerConfig =
+        toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    config
+        .validate()
+        .with_context(|| format!("{}", path.display()))?;
+    Ok(config)
+}
+
+/// The poses to write: from the first fix on (every frame with `--all-frames`), the final
+/// solve's or, with `--online`, those given while driving.
+fn trajectory(
+    times: &[f64],
+    outputs: &[FrameOutput],
+    session: &SessionResult,
+    args: &LocalizeArgs,
+    first_fix: usize,
+) -> Vec<(f64, nalgebra::Isometry3<f64>)> {
+    let from = if args.all_frames { 0 } else { first_fix };
+    (from..times.len())
+        .filter_map(|k| {
+            let pose = if args.online && !args.all_frames {
+                outputs.get(k)?.prior_from_rover?
+            } else {
+                *session.poses.get(k)?
+            };
+            Some((times[k], pose))
+        })
+        .collect()
+}
+
+/// Print the summary: JSON, or a few lines for people (on stderr when there is no fix).
+fn report(args: &LocalizeArgs, summary: &serde_json::Value, what: &str) -> Result<()> {
+    if args.json {
+        super::print_json(summary)?;
+        return Ok(());
+    }
+    let fixes = &summary["fixes"];
+    let line = format!(
+        "{what}: {} frames, {} fixes accepted, {} refused {}, first fix at {} s; per frame {} ms median, {} ms p99",
+        summary["frames"],
+        fixes["accepted"],
+        fixes["refused"],
+        fixes["reasons"],
+        summary["first_fix_t"],
+        summary["per_frame_ms"]["median"],
+        summary["per_frame_ms"]["p99"],
+    );
+    if summary["first_fix_t"].is_null() {
+        eprintln!("{line}");
+    } else {
+        println!("{line}");
+    }
+    Ok(())
+}
+
+/// The `--json` summary.
+fn summary(
+    frames: &[segloc::localizer::FrameInput],
+    outputs: &[FrameOutput],
+    session: &SessionResult,
+    first_fix: Option<usize>,
+    config: &LocalizerConfig,
+) -> serde_json::Value {
+    let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
+    for a in session.attempts.iter().filter(|a| !a.accepted()) {
+        *reasons.entry(a.status.code()).or_default() += 1;
+    }
+    let accepted = session.attempts.iter().filter(|a| a.accepted()).count();
+    let prior_from_odom = match (frames.last(), session.poses.last(), first_fix) {
+        (Some(f), Some(p), Some(_)) => {
+            let m = (p * f.odom_from_rover.inverse()).to_homogeneous();
+            json!((0..4)
+                .map(|r| (0..4).map(|c| m[(r, c)]).collect::<Vec<_>>())
+                .collect::<Vec<_>>())
+        }
+        _ => serde_json::Value::Null,
+    };
+    let plain: Vec<f64> = outputs
+        .iter()
+        .filter(|o| !o.attempted())
+        .map(|o| o.time_ms)
+        .collect();
+    let attempts: Vec<f64> = outputs
+        .iter()
+        .filter(|o| o.attempted())
+        .map(|o| o.time_ms)
+        .collect();
+    json!({
+        "frames": frames.len(),
+        "fixes": {
+            "accepted": accepted,
+            "refused": session.attempts.len() - accepted,
+            "reasons": reasons,
+        },
+        "first_fix_t": first_fix.and_then(|k| frames.get(k)).map(|f| f.t),
+        "prior_from_odom": prior_from_odom,
+        "per_frame_ms": stats(&plain),
+        "attempt_ms": stats(&attempts),
+        "landmarks_in_map": session.map.len(),
+        "config": config,
+    })
+}
+
+/// Median, 99th percentile and maximum of `values` (nulls when empty).
+fn stats(values: &[f64]) -> serde_json::Value {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        v.get(((v.len() as f64 - 1.0) * q).round() as usize)
+            .copied()
+    };
+    json!({"median": at(0.5), "p99": at(0.99), "max": v.last(), "count": v.len()})
+}
