@@ -7,7 +7,7 @@
 //! ```no_run
 //! use segloc::localizer::{Localizer, LocalizerConfig};
 //! # fn frames() -> Vec<segloc::localizer::FrameInput> { Vec::new() }
-//! # let prior_map = segloc::maps::ObjectMap::new("world".into(), "s1".into(), true);
+//! # let prior_map = segloc::maps::ObjectMap::new("world", "s1", true);
 //! let mut localizer = Localizer::new(Some(prior_map), LocalizerConfig::default())?;
 //! for frame in frames() {
 //!     let out = localizer.push_frame(&frame)?;

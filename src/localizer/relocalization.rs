@@ -212,3 +212,66 @@ pub fn yaw_sigma_deg(information: &Matrix6<f64>) -> f64 {
         .filter(|v| v.is_finite() && *v >= 0.0)
         .map_or(f64::INFINITY, |v| v.sqrt().to_degrees())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::localizer::frame_log::FrameLog;
+    use nalgebra::Vector3;
+    use segloc_maps::frames::StreamFrame;
+
+    fn pose(x: f64, y: f64, yaw_deg: f64) -> Isometry3<f64> {
+        Isometry3::new(Vector3::new(x, y, 0.0), Vector3::z() * yaw_deg.to_radians())
+    }
+
+    fn candidate(k: usize, prior_from_rover: Isometry3<f64>) -> Candidate {
+        Candidate {
+            k,
+            prior_from_rover,
+            information: Matrix6::identity() * 1e4,
+            attempt: k,
+        }
+    }
+
+    #[test]
+    fn the_gate_stops_a_wrong_fix_and_admits_two_that_agree() {
+        // 40 frames straight along x, 0.3 m apart; the prior frame is the odometry frame
+        // moved by (2, 1) m
+        let mut log = FrameLog::default();
+        for k in 0..40 {
+            log.push(&StreamFrame::new(k as f64, pose(0.3 * k as f64, 0.0, 0.0)));
+        }
+        let config = LocalizerConfig::default();
+        let mut graph = TrajectoryGraph::new();
+        graph.extend(&log, &config).unwrap();
+        let prior_from_odom = pose(2.0, 1.0, 0.0);
+        let truth = |k: usize| prior_from_odom * log.frames[k].odom_from_rover;
+        let mut gate = PriorGate::default();
+        // a first result waits for confirmation; the next one agrees: both enter
+        assert!(gate
+            .admit(candidate(10, truth(10)), &graph, &config)
+            .is_empty());
+        let admitted = gate.admit(candidate(20, truth(20)), &graph, &config);
+        assert_eq!(admitted.len(), 2);
+        for c in admitted {
+            graph
+                .add_relocalization(
+                    c.k,
+                    c.prior_from_rover,
+                    c.information,
+                    crate::graph::RobustKernel::None,
+                )
+                .unwrap();
+        }
+        gate.last_fix_frame = Some(20);
+        graph.optimize().unwrap();
+        // a result 30 cm and 2° off the graph's prediction is held back
+        let wrong = pose(0.3, 0.0, 2.0) * truth(30);
+        assert!(gate.admit(candidate(30, wrong), &graph, &config).is_empty());
+        // a good one is admitted alone
+        assert_eq!(
+            gate.admit(candidate(31, truth(31)), &graph, &config).len(),
+            1
+        );
+    }
+}

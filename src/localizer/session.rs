@@ -483,3 +483,162 @@ fn finish_mapping(
         fusion,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use segloc_maps::frames::{FrameDetection, StreamFrame};
+    use segloc_maps::Landmark;
+
+    /// 90 boulders of 0.2–0.5 m scattered over 24 m × 24 m.
+    fn field() -> Vec<(Point3<f64>, f64)> {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        (0..90)
+            .map(|_| {
+                let p = Point3::new(
+                    rng.random_range(-12.0..12.0),
+                    rng.random_range(-12.0..12.0),
+                    0.1,
+                );
+                (p, rng.random_range(0.2..0.5))
+            })
+            .collect()
+    }
+
+    /// The field as a prior map (world frame, 1 cm landmarks).
+    fn prior_map(field: &[(Point3<f64>, f64)]) -> ObjectMap {
+        let mut map = ObjectMap::new("world", "prior", true);
+        for (i, (p, size)) in field.iter().enumerate() {
+            let mut l = Landmark::new(i as u32, *p, Matrix3::identity() * 1e-4);
+            l.size_m = Some(*size);
+            l.observations = 5;
+            map.landmarks.push(l);
+        }
+        map
+    }
+
+    /// 200 s on a 5 m circle at 1 Hz: the frames (odometry `scale` long, turning
+    /// `yaw_drift` rad too far per metre, started at an arbitrary pose) and the truth.
+    fn drive(
+        field: &[(Point3<f64>, f64)],
+        scale: f64,
+        yaw_drift: f64,
+    ) -> (Vec<StreamFrame>, Vec<Isometry3<f64>>) {
+        let truth_at = |t: f64| {
+            let a = 0.06 * t;
+            Isometry3::from_parts(
+                Translation3::new(5.0 * a.cos(), 5.0 * a.sin(), 0.0),
+                UnitQuaternion::from_euler_angles(0.0, 0.0, a + std::f64::consts::FRAC_PI_2),
+            )
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut odom = Isometry3::new(Vector3::new(30.0, -4.0, 0.0), Vector3::z() * 1.0);
+        let (mut frames, mut truth) = (Vec::new(), Vec::new());
+        for k in 0..200 {
+            let t = k as f64;
+            let world_from_rover = truth_at(t);
+            if k > 0 {
+                let step = truth_at(t - 1.0).inverse() * world_from_rover;
+                let d = step.translation.vector.norm();
+                odom *= Isometry3::from_parts(
+                    Translation3::from(step.translation.vector * scale),
+                    step.rotation * UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_drift * d),
+                );
+            }
+            let mut frame = StreamFrame::new(t, odom);
+            frame.gravity_rover = Some(Vector3::new(0.0, 0.0, -1.62));
+            frame.detections = field
+                .iter()
+                .map(|(p, size)| (world_from_rover.inverse() * p, *size))
+                .filter(|(p, _)| p.x > 0.5 && p.coords.xy().norm() < 7.0)
+                .map(|(p, size)| FrameDetection {
+                    p_rover: p + Vector3::new(
+                        rng.random_range(-0.01..0.01),
+                        rng.random_range(-0.01..0.01),
+                        0.0,
+                    ),
+                    size_m: Some(size),
+                    cov_rover: None,
+                })
+                .collect();
+            frames.push(frame);
+            truth.push(world_from_rover);
+        }
+        (frames, truth)
+    }
+
+    fn no_view_bias() -> LocalizerConfig {
+        let mut config = LocalizerConfig::default();
+        config.fusion.view_bias_size_fraction = 0.0;
+        config.fusion.view_bias_m = 0.0;
+        config
+    }
+
+    #[test]
+    fn a_drifting_drive_finds_itself_in_the_prior_map() {
+        let field = field();
+        let (frames, truth) = drive(&field, 1.02, 0.003);
+        let mut localizer = Localizer::new(Some(prior_map(&field)), no_view_bias()).unwrap();
+        let mut online = Vec::new();
+        for f in &frames {
+            online.push(localizer.push_frame(f).unwrap());
+        }
+        let first = localizer.first_fix_frame().expect("a fix");
+        assert!(first < 60, "first fix at frame {first}");
+        // what the rover knew while driving, from its first fix on
+        for (k, out) in online.iter().enumerate().skip(first) {
+            let p = out.prior_from_rover.expect("known after the first fix");
+            let e = (p.translation.vector - truth[k].translation.vector).norm();
+            assert!(e < 0.15, "frame {k}: {e} m");
+        }
+        let session = localizer.finish().unwrap();
+        let accepted = session.attempts.iter().filter(|a| a.accepted()).count();
+        assert!(accepted >= 5, "{:?}", session.attempts);
+        let sum: f64 = (first..truth.len())
+            .map(|k| {
+                (session.poses[k].translation.vector - truth[k].translation.vector).norm_squared()
+            })
+            .sum();
+        let rmse = (sum / (truth.len() - first) as f64).sqrt();
+        assert!(rmse < 0.03, "final RMSE {rmse} m");
+        assert!(session.map.len() > 20);
+    }
+
+    #[test]
+    fn a_mapping_session_is_anchored_at_its_first_frame() {
+        let field = field();
+        let (frames, _) = drive(&field, 1.0, 0.0);
+        let mut localizer = Localizer::new(None, no_view_bias()).unwrap();
+        for f in &frames {
+            let out = localizer.push_frame(f).unwrap();
+            assert!(out.prior_from_rover.is_some());
+        }
+        let session = localizer.finish().unwrap();
+        let first = session.poses[0] * frames[0].odom_from_rover.inverse();
+        assert!(first.translation.vector.norm() < 1e-9);
+        assert!(session.map.len() > 20);
+        assert!(session.map.notes.contains_key(VIEW_BIAS_NOTE));
+    }
+
+    #[test]
+    fn frames_out_of_order_or_not_finite_are_refused() {
+        let mut localizer = Localizer::new(None, LocalizerConfig::default()).unwrap();
+        localizer
+            .push_frame(&StreamFrame::new(1.0, Isometry3::identity()))
+            .unwrap();
+        let e = localizer
+            .push_frame(&StreamFrame::new(1.0, Isometry3::identity()))
+            .unwrap_err();
+        assert!(e.to_string().contains("does not advance"), "{e}");
+        let e = localizer
+            .push_frame(&StreamFrame::new(
+                2.0,
+                Isometry3::translation(f64::NAN, 0.0, 0.0),
+            ))
+            .unwrap_err();
+        assert!(e.to_string().contains("not finite"), "{e}");
+    }
+}
