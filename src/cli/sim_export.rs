@@ -20,7 +20,8 @@ pub struct ExportArgs {
     /// The session to export: 1 (mapping, known start) or 2 (lost, against session 1's map).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
     session: u8,
-    /// Simulated seconds of each session (default: the mission's).
+    /// Simulated seconds of the exported session (default: the mission's); session 2's
+    /// prior is always session 1 of the mission's default length.
     #[arg(long)]
     seconds: Option<f64>,
     /// Where to write the frames file.
@@ -41,8 +42,11 @@ pub fn run(args: &ExportArgs) -> Result<i32> {
         if !(seconds.is_finite() && seconds > 0.0 && seconds <= 1e5) {
             bail!("--seconds must be within (0, 1e5]");
         }
-        config.seconds_per_session = seconds;
-        config.seconds_session_2 = None;
+        if args.session == 1 {
+            config.seconds_per_session = seconds;
+        } else {
+            config.seconds_session_2 = Some(seconds);
+        }
     }
     let sessions = drive_sessions(args.seed, &config, &Silent)?;
     let log = if args.session == 1 {
