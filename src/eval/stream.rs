@@ -49,6 +49,10 @@ pub const WRONG_FIX_M: f64 = 0.10;
 /// See [`WRONG_FIX_M`] (degrees).
 pub const WRONG_FIX_DEG: f64 = 1.0;
 
+/// A frame sees the prior map when one of its detections lies this close to one of the
+/// prior map's landmarks (the fusion's default cluster radius), m.
+pub const SEES_PRIOR_M: f64 = 0.2;
+
 /// The odometry's errors in a replayed drive.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct DriftConfig {
@@ -302,17 +306,38 @@ pub fn drive_from_traverse(
     }
 }
 
-/// An accepted fix that is wrong: its measured pose against the truth of its frame.
+/// An accepted fix: its measured pose against the truth of its frame.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct WrongFix {
+pub struct FixScore {
     /// Index of the attempt.
     pub attempt: usize,
     /// The frame the fix is anchored at.
     pub frame: usize,
+    /// Time of the attempt, s.
+    pub t: f64,
+    /// Inlier associations.
+    pub inliers: usize,
     /// Translation error, m.
     pub error_m: f64,
     /// Rotation error, degrees.
     pub error_deg: f64,
+    /// Over [`WRONG_FIX_M`] or [`WRONG_FIX_DEG`].
+    pub wrong: bool,
+}
+
+/// Position RMSE of the estimates over a set of frames, m (`None` without such frames).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Rmse {
+    /// Frames in the set.
+    pub frames: usize,
+    /// The online `prior_from_rover` of `push_frame` (what the rover knew at the time).
+    pub online_m: Option<f64>,
+    /// The final smoothed poses (`SessionResult::poses`).
+    pub smoothed_m: Option<f64>,
+    /// The same before the boulder adjustment.
+    pub before_adjustment_m: Option<f64>,
+    /// The odometry alone, aligned with the truth at the first frame.
+    pub odometry_m: Option<f64>,
 }
 
 /// Wall time of the localizer's frames, milliseconds.
@@ -359,18 +384,19 @@ pub struct PairRow {
     pub first_fix_frame: Option<usize>,
     /// Its time since the drive's first frame, s.
     pub time_to_first_fix_s: Option<f64>,
-    /// Position RMSE of the online `prior_from_rover` (what the rover knew at the time)
-    /// over the frames from the first fix on, m.
-    pub rmse_online_m: Option<f64>,
-    /// Position RMSE of the final smoothed poses over the same frames, m.
-    pub rmse_smoothed_m: Option<f64>,
-    /// Position RMSE of the odometry alone (aligned with the truth at the first frame) over
-    /// the same frames, m (over the whole drive when there is no fix).
-    pub rmse_odometry_m: f64,
+    /// Position RMSE over the frames from the first fix on (without a fix: the odometry's
+    /// over the whole drive, the others `None`).
+    pub rmse: Rmse,
+    /// Position RMSE over the frames from the first fix on that see a boulder of the prior
+    /// map (a detection within [`SEES_PRIOR_M`] of one of its landmarks): where the prior map
+    /// can correct the rover at all.
+    pub rmse_seeing_prior: Rmse,
     /// The largest position error of an accepted fix, m.
     pub max_fix_error_m: Option<f64>,
-    /// Every accepted fix that is wrong ([`WRONG_FIX_M`], [`WRONG_FIX_DEG`]).
-    pub wrong_fixes: Vec<WrongFix>,
+    /// Every accepted fix, scored.
+    pub fixes: Vec<FixScore>,
+    /// The accepted fixes that are wrong ([`WRONG_FIX_M`], [`WRONG_FIX_DEG`]).
+    pub wrong_fixes: Vec<FixScore>,
     /// Wall time of the frames.
     pub time: FrameTimes,
 }
@@ -441,6 +467,50 @@ fn replay(
     })
 }
 
+/// Whether each frame of `drive` sees `prior_map` (see [`PairRow::rmse_seeing_prior`]).
+pub fn frames_seeing(drive: &Drive, prior_map: &ObjectMap) -> Vec<bool> {
+    let landmarks = prior_map.positions();
+    drive
+        .frames
+        .iter()
+        .zip(&drive.truth)
+        .map(|(f, world_from_rover)| {
+            f.detections.iter().any(|d| {
+                let p = world_from_rover * d.p_rover;
+                landmarks.iter().any(|l| (l - p).norm() <= SEES_PRIOR_M)
+            })
+        })
+        .collect()
+}
+
+/// The [`Rmse`] over the frames where `mask` holds.
+fn rmse_over(
+    mask: &[bool],
+    r: &Replay,
+    truth: &[Isometry3<f64>],
+    odometry: &[Isometry3<f64>],
+) -> Rmse {
+    let over = |poses: &[Isometry3<f64>]| {
+        rmse_m(
+            mask.iter()
+                .zip(poses.iter().zip(truth))
+                .filter_map(|(m, pair)| m.then_some(pair)),
+        )
+    };
+    let online: Vec<(&Isometry3<f64>, &Isometry3<f64>)> = mask
+        .iter()
+        .zip(r.online.iter().zip(truth))
+        .filter_map(|(m, (e, t))| Some((e.as_ref().filter(|_| *m)?, t)))
+        .collect();
+    Rmse {
+        frames: mask.iter().filter(|m| **m).count(),
+        online_m: rmse_m(online.into_iter()),
+        smoothed_m: over(&r.session.poses),
+        before_adjustment_m: over(&r.session.poses_before_adjustment),
+        odometry_m: over(odometry),
+    }
+}
+
 /// Replay `drive` against `prior_map` (traverse `prior`'s map, in the world frame) and score
 /// it against the drive's truth.
 pub fn run_pair(
@@ -451,27 +521,25 @@ pub fn run_pair(
     config: &LocalizerConfig,
 ) -> Result<PairRow, LocalizerError> {
     let prior_landmarks = prior_map.len();
+    let seeing = frames_seeing(drive, &prior_map);
     let r = replay(prior_map, drive, config)?;
     let truth = &drive.truth;
     let first_fix = r.online.iter().position(Option::is_some);
     let from = first_fix.unwrap_or(0);
-    let online: Vec<(&Isometry3<f64>, &Isometry3<f64>)> = r.online[from..]
-        .iter()
-        .zip(&truth[from..])
-        .filter_map(|(e, t)| Some((e.as_ref()?, t)))
-        .collect();
     let world_from_odom = truth[0] * drive.frames[0].odom_from_rover.inverse();
     let odometry: Vec<Isometry3<f64>> = drive
         .frames
         .iter()
         .map(|f| world_from_odom * f.odom_from_rover)
         .collect();
+    let after: Vec<bool> = (0..truth.len()).map(|k| k >= from).collect();
+    let after_seeing: Vec<bool> = after.iter().zip(&seeing).map(|(a, s)| *a && *s).collect();
     let attempts = &r.session.attempts;
     let mut refused = BTreeMap::new();
     for a in attempts.iter().filter(|a| !a.accepted()) {
         *refused.entry(a.status.code()).or_insert(0) += 1;
     }
-    let (fix_errors, wrong_fixes) = score_fixes(&r.session, truth);
+    let fixes = score_fixes(&r.session, truth);
     Ok(PairRow {
         prior,
         query: drive.traverse,
@@ -485,12 +553,11 @@ pub fn run_pair(
         refused,
         first_fix_frame: first_fix,
         time_to_first_fix_s: first_fix.map(|k| drive.frames[k].t - drive.frames[0].t),
-        rmse_online_m: rmse_m(online.into_iter()),
-        rmse_smoothed_m: first_fix
-            .and_then(|k| rmse_m(r.session.poses.get(k..)?.iter().zip(&truth[k..]))),
-        rmse_odometry_m: rmse_m(odometry[from..].iter().zip(&truth[from..])).unwrap_or(0.0),
-        max_fix_error_m: fix_errors.into_iter().reduce(f64::max),
-        wrong_fixes,
+        rmse: rmse_over(&after, &r, truth, &odometry),
+        rmse_seeing_prior: rmse_over(&after_seeing, &r, truth, &odometry),
+        max_fix_error_m: fixes.iter().map(|f| f.error_m).reduce(f64::max),
+        wrong_fixes: fixes.iter().filter(|f| f.wrong).cloned().collect(),
+        fixes,
         time: FrameTimes {
             median_ms: median(&r.plain_ms),
             p99_ms: quantile(&r.plain_ms, 0.99),
@@ -502,11 +569,9 @@ pub fn run_pair(
     })
 }
 
-/// The position error of every accepted fix against the truth of its frame, and the wrong
-/// ones.
-fn score_fixes(session: &SessionResult, truth: &[Isometry3<f64>]) -> (Vec<f64>, Vec<WrongFix>) {
-    let mut errors = Vec::new();
-    let mut wrong = Vec::new();
+/// Every accepted fix of `session` against the truth of its frame.
+fn score_fixes(session: &SessionResult, truth: &[Isometry3<f64>]) -> Vec<FixScore> {
+    let mut fixes = Vec::new();
     for (attempt, record) in session.attempts.iter().enumerate() {
         let Some(Measurement::Prior {
             k,
@@ -523,17 +588,17 @@ fn score_fixes(session: &SessionResult, truth: &[Isometry3<f64>]) -> (Vec<f64>, 
             &(true_pose.inverse() * prior_from_rover),
             &Isometry3::identity(),
         );
-        errors.push(error_m);
-        if error_m > WRONG_FIX_M || error_deg > WRONG_FIX_DEG {
-            wrong.push(WrongFix {
-                attempt,
-                frame: k,
-                error_m,
-                error_deg,
-            });
-        }
+        fixes.push(FixScore {
+            attempt,
+            frame: k,
+            t: record.t,
+            inliers: record.inliers,
+            error_m,
+            error_deg,
+            wrong: error_m > WRONG_FIX_M || error_deg > WRONG_FIX_DEG,
+        });
     }
-    (errors, wrong)
+    fixes
 }
 
 /// The figures over all pairs.
@@ -551,6 +616,10 @@ pub struct Aggregate {
     pub median_rmse_smoothed_m: f64,
     /// Maximum of the same, m.
     pub max_rmse_smoothed_m: f64,
+    /// Median of the pairs' online RMSE over the frames that see the prior map, m.
+    pub median_rmse_online_seeing_prior_m: f64,
+    /// Maximum of the same, m.
+    pub max_rmse_online_seeing_prior_m: f64,
     /// Accepted attempts over all pairs.
     pub accepted: usize,
     /// Wrong accepted fixes over all pairs.
@@ -571,8 +640,9 @@ impl Aggregate {
             .filter(|r| r.first_fix_frame.is_some())
             .collect();
         let of = |f: fn(&PairRow) -> Option<f64>| fixed.iter().filter_map(|r| f(r)).collect();
-        let online: Vec<f64> = of(|r| r.rmse_online_m);
-        let smoothed: Vec<f64> = of(|r| r.rmse_smoothed_m);
+        let online: Vec<f64> = of(|r| r.rmse.online_m);
+        let smoothed: Vec<f64> = of(|r| r.rmse.smoothed_m);
+        let seeing: Vec<f64> = of(|r| r.rmse_seeing_prior.online_m);
         let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
         let times: Vec<f64> = rows.iter().map(|r| r.time.median_ms).collect();
         let attempt_times: Vec<f64> = rows
@@ -587,6 +657,8 @@ impl Aggregate {
             max_rmse_online_m: max(&online),
             median_rmse_smoothed_m: median(&smoothed),
             max_rmse_smoothed_m: max(&smoothed),
+            median_rmse_online_seeing_prior_m: median(&seeing),
+            max_rmse_online_seeing_prior_m: max(&seeing),
             accepted: rows.iter().map(|r| r.accepted).sum(),
             wrong_fixes: rows.iter().map(|r| r.wrong_fixes.len()).sum(),
             median_time_to_first_fix_s: median(&of(|r| r.time_to_first_fix_s)),
