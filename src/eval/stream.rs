@@ -1,5 +1,5 @@
 //! The real LunarLoc traverses replayed as streams through the online
-//! [`Localizer`](crate::localizer::Localizer) (`segloc eval stream`).
+//! [`crate::localizer::Localizer`] (`segloc eval stream`).
 //!
 //! Each query traverse becomes a drive of [`StreamFrame`]s, one per frame with detections in
 //! the traverse's cadence (every 20th simulator frame on most traverses, every 4th or 6th on
