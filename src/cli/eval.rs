@@ -1,8 +1,8 @@
-//! `segloc eval lunarloc|landmarks`.
+//! `segloc eval lunarloc|merge|landmarks|stream`.
 
 use super::print_json;
 use super::relocalize::parse_dof;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Subcommand;
 use segloc::align::Dof;
 use segloc::eval::landmark_quality::{match_map, match_rocks};
@@ -10,12 +10,14 @@ use segloc::eval::lunarloc::{
     all_pairs, evaluate, self_pairs, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
 };
 use segloc::eval::merge::{evaluate_merge, merged_rock_map, MergeEvalOptions};
+use segloc::eval::stream::{evaluate_stream, DriftConfig, PairChoice, StreamReport};
 use segloc::eval::traverse_path;
 use segloc::landmarks::fuse_detections;
+use segloc::localizer::LocalizerConfig;
 use segloc::relocalize::RelocalizeConfig;
 use segloc_maps::{read_grid_csv, read_lunarloc_traverse};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Evaluation commands.
 #[derive(Subcommand, Debug)]
@@ -81,6 +83,9 @@ pub enum EvalCommand {
         #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
         view_bias_sigma_m: f64,
     },
+    /// Replay LunarLoc traverses frame by frame through the online localizer, each against
+    /// another traverse's map, with drifting odometry; score every pose against the truth.
+    Stream(StreamArgs),
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
         /// The data folder holding `lunarloc/` and `lac-groundtruth/`.
@@ -90,6 +95,38 @@ pub enum EvalCommand {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// Arguments of `segloc eval stream`.
+#[derive(clap::Args, Debug)]
+pub struct StreamArgs {
+    /// The data folder holding `lunarloc/traverse_N.csv`.
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Which ordered pairs (prior, query): `paper` (the five of the LunarLoc paper, both
+    /// ways), `all` (every ordered pair whose maps share a boulder) or a list `3:5,5:3`.
+    #[arg(long, default_value = "paper")]
+    pub pairs: String,
+    /// Seed of the odometry's random start and yaw random walk.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The odometry's yaw drift, degrees per 10 m driven.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub yaw_drift_deg_per_10m: f64,
+    /// The odometry's scale error (0.01: distances 1 % too long).
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    pub scale_error: f64,
+    /// The odometry's yaw random walk, 1 σ, radians per √m driven.
+    #[arg(long, default_value_t = 0.0005)]
+    pub yaw_walk_rad_per_sqrt_m: f64,
+    /// The localizer's configuration (TOML, a `LocalizerConfig`); defaults otherwise. (The
+    /// global `--config` is the relocalizer's: its `[landmarks]` fuse the prior maps, as in
+    /// `segloc map build`.)
+    #[arg(long, value_name = "FILE")]
+    pub localizer_config: Option<PathBuf>,
+    /// Print one JSON object (per-pair rows, the aggregate, the configuration).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Run an evaluation.
@@ -222,6 +259,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             }
             Ok(0)
         }
+        EvalCommand::Stream(args) => run_stream(args, config),
         EvalCommand::Landmarks { data, json } => {
             let grid = read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
             let mut rows = Vec::new();
@@ -323,5 +361,143 @@ fn print_table(report: &EvalReport) {
         "translation error cm: mean {:.3} median {:.3} max {:.3}; rotation error deg: mean {:.4} max {:.4}; time ms: mean {:.1} max {:.1}",
         100.0 * t.translation_error_m.mean, 100.0 * t.translation_error_m.median, 100.0 * t.translation_error_m.max,
         t.rotation_error_deg.mean, t.rotation_error_deg.max, t.time_ms.mean, t.time_ms.max
+    );
+}
+
+/// `segloc eval stream`.
+fn run_stream(args: &StreamArgs, config: &RelocalizeConfig) -> Result<i32> {
+    let choice = parse_pairs(&args.pairs)?;
+    let localizer = match &args.localizer_config {
+        Some(path) => load_localizer_config(path)?,
+        None => LocalizerConfig::default(),
+    };
+    let drift = DriftConfig {
+        yaw_walk_rad_per_sqrt_m: args.yaw_walk_rad_per_sqrt_m,
+        yaw_drift_deg_per_10m: args.yaw_drift_deg_per_10m,
+        scale_error: args.scale_error,
+    };
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} pairs {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let report = evaluate_stream(
+        &args.data,
+        &choice,
+        &drift,
+        args.seed,
+        &config.landmarks,
+        &localizer,
+        |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )?;
+    bar.finish_and_clear();
+    if args.json {
+        print_json(&report)?;
+    } else {
+        print_stream_table(&report);
+    }
+    Ok(0)
+}
+
+/// `paper`, `all`, or a list of ordered pairs `3:5,5:3`.
+fn parse_pairs(text: &str) -> Result<PairChoice> {
+    match text {
+        "paper" => return Ok(PairChoice::Paper),
+        "all" => return Ok(PairChoice::All),
+        _ => {}
+    }
+    let mut list = Vec::new();
+    for item in text.split(',') {
+        let parsed = item
+            .split_once(':')
+            .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)));
+        match parsed {
+            Some(pair) => list.push(pair),
+            None => bail!(
+                "--pairs: expected `paper`, `all` or pairs PRIOR:QUERY separated by commas \
+                 (e.g. 3:5,5:3), got `{item}`"
+            ),
+        }
+    }
+    Ok(PairChoice::List(list))
+}
+
+/// A `LocalizerConfig` from a TOML file, checked.
+fn load_localizer_config(path: &Path) -> Result<LocalizerConfig> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read localizer config {}", path.display()))?;
+    let config: LocalizerConfig =
+        toml::from_str(&text).with_context(|| format!("localizer config {}", path.display()))?;
+    config
+        .validate()
+        .with_context(|| format!("localizer config {}", path.display()))?;
+    Ok(config)
+}
+
+/// Centimetres with two decimals, `-` when absent.
+fn cm(value: Option<f64>) -> String {
+    value.map_or_else(|| "-".into(), |v| format!("{:.2}", 100.0 * v))
+}
+
+fn print_stream_table(report: &StreamReport) {
+    println!(
+        "{:>5} {:>5} {:>6} {:>5} {:>6} {:>4} {:>4} {:>6} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>5} {:>6} {:>6} {:>7}  refused",
+        "prior", "query", "common", "step", "frames", "att", "acc", "fix_s", "online", "smooth",
+        "pre_ba", "odom", "seen", "online", "wrong", "ms_med", "ms_p99", "ms_att"
+    );
+    for p in &report.pairs {
+        let refused: Vec<String> = p.refused.iter().map(|(k, n)| format!("{k} {n}")).collect();
+        let (all, seen) = (&p.rmse, &p.rmse_seeing_prior);
+        println!(
+            "{:>5} {:>5} {:>6} {:>5} {:>6} {:>4} {:>4} {:>6} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>5} {:>6.2} {:>6.2} {:>7.1}  {}",
+            p.prior,
+            p.query,
+            p.common_landmarks,
+            p.frame_step,
+            p.frames,
+            p.attempts,
+            p.accepted,
+            p.time_to_first_fix_s
+                .map_or_else(|| "-".into(), |t| format!("{t:.0}")),
+            cm(all.online_m),
+            cm(all.smoothed_m),
+            cm(all.before_adjustment_m),
+            cm(all.odometry_m),
+            seen.frames,
+            cm(seen.online_m),
+            p.wrong_fixes.len(),
+            p.time.median_ms,
+            p.time.p99_ms,
+            p.time.attempt_median_ms,
+            refused.join(", ")
+        );
+    }
+    let a = &report.aggregate;
+    println!(
+        "(RMSE in cm over the frames from the first fix on: online, smoothed, smoothed before \
+         the boulder adjustment, odometry alone aligned at the first frame; then the frames \
+         among them that see the prior map and their online RMSE)"
+    );
+    println!(
+        "{} pairs, {} with a fix; online RMSE median {:.2} cm, max {:.2} cm (seeing the prior \
+         map: median {:.2}, max {:.2}); smoothed median {:.2} cm, max {:.2} cm; accepted {}, \
+         wrong fixes {}; first fix after {:.0} s (median); frame {:.3} ms, with an attempt \
+         {:.1} ms (medians)",
+        a.pairs,
+        a.pairs_with_fix,
+        100.0 * a.median_rmse_online_m,
+        100.0 * a.max_rmse_online_m,
+        100.0 * a.median_rmse_online_seeing_prior_m,
+        100.0 * a.max_rmse_online_seeing_prior_m,
+        100.0 * a.median_rmse_smoothed_m,
+        100.0 * a.max_rmse_smoothed_m,
+        a.accepted,
+        a.wrong_fixes,
+        a.median_time_to_first_fix_s,
+        a.median_frame_ms,
+        a.median_attempt_ms
     );
 }

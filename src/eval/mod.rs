@@ -4,11 +4,14 @@
 //!   with the truth (all traverses share one world frame);
 //! - [`merge`]: map merging with traverses as agents;
 //! - [`landmark_quality`]: how well fused landmarks land on the ground-truth rock cells;
+//! - [`stream`]: traverses replayed frame by frame through the online localizer against
+//!   another traverse's map;
 //! - [`transform_error`]: the error measures.
 
 pub mod landmark_quality;
 pub mod lunarloc;
 pub mod merge;
+pub mod stream;
 
 use nalgebra::{Isometry3, Point3};
 use segloc_maps::DetectionSet;

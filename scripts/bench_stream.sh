@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# The online localizer on the real LunarLoc traverses replayed as streams
+# (`segloc eval stream`): the paper pairs both ways, then every ordered pair whose maps
+# share a boulder. Prints a markdown section for BENCHMARKS.md on stdout (command, date,
+# machine, commit, per-pair table of the paper pairs, aggregates of both runs); the JSON
+# reports stay in $CARGO_TARGET_DIR/bench (default target/bench).
+#
+#   scripts/bench_stream.sh [--seed S] [extra `eval stream` options...]   (from anywhere)
+# Environment: SEGLOC_DATA (default ../shared/data, relative to the repo root),
+# CARGO_TARGET_DIR.
+set -euo pipefail
+repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo_root"
+data="${SEGLOC_DATA:-../shared/data}"
+[ -d "$data/lunarloc" ] || { echo "bench_stream: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
+target="${CARGO_TARGET_DIR:-target}"
+cargo build --release --quiet --bin segloc
+bin="$target/release/segloc"
+out="$target/bench"
+mkdir -p "$out"
+extra=("$@")
+[[ " ${extra[*]-} " == *" --seed "* ]] || extra+=(--seed 1)
+
+echo "[bench_stream] paper pairs, both ways" >&2
+"$bin" eval stream --data "$data" --pairs paper --json "${extra[@]}" > "$out/stream_paper.json"
+echo "[bench_stream] all ordered pairs sharing a boulder" >&2
+"$bin" eval stream --data "$data" --pairs all --json "${extra[@]}" > "$out/stream_all.json"
+
+python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" \
+  "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" \
+  "$(git rev-parse --short HEAD)" "${extra[*]}" <<'PY'
+import json, sys
+out, date, machine, commit, extra = sys.argv[1:6]
+paper = json.load(open(f"{out}/stream_paper.json"))
+every = json.load(open(f"{out}/stream_all.json"))
+
+def cm(x):
+    return "–" if x is None else f"{100 * x:.2f}"
+
+def s(x, fmt="{:.0f}"):
+    return "–" if x is None else fmt.format(x)
+
+d = paper["drift"]
+print("## The online localizer on the LunarLoc traverses (`eval stream`)")
+print()
+print(f"Commands: `segloc eval stream --pairs paper --json {extra}` and "
+      f"`segloc eval stream --pairs all --json {extra}` (via `scripts/bench_stream.sh`). "
+      f"Date: {date}. Machine: {machine}. Commit `{commit}`.")
+print()
+print(f"Odometry: yaw drift {d['yaw_drift_deg_per_10m']}°/10 m, scale error {100 * d['scale_error']:.1f} %, "
+      f"yaw random walk {d['yaw_walk_rad_per_sqrt_m']} rad/√m, seed {paper['seed']}; default `LocalizerConfig` "
+      "unless the options above say otherwise. RMSE (cm) of positions over the frames from the first fix on: "
+      "online (`push_frame`, what the rover knew then), smoothed (`finish`), odometry alone (aligned at the first "
+      "frame); *seeing prior*: the online RMSE over those of the frames that see a boulder of the prior map. "
+      "A wrong fix: an accepted fix over 10 cm or 1° from the truth of its frame.")
+print()
+print("| prior | query | frames | fixes / attempts | first fix (s) | online | smoothed | odometry | seeing prior (frames) | wrong fixes | frame ms median / p99 | attempt ms median |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+for p in paper["pairs"]:
+    r, seen, t = p["rmse"], p["rmse_seeing_prior"], p["time"]
+    print(f"| {p['prior']} | {p['query']} | {p['frames']} | {p['accepted']} / {p['attempts']} | "
+          f"{s(p['time_to_first_fix_s'])} | {cm(r['online_m'])} | {cm(r['smoothed_m'])} | {cm(r['odometry_m'])} | "
+          f"{cm(seen['online_m'])} ({seen['frames']}) | {len(p['wrong_fixes'])} | "
+          f"{t['median_ms']:.3f} / {t['p99_ms']:.3f} | {t['attempt_median_ms']:.1f} |")
+print()
+print("| run | pairs (with a fix) | online RMSE median / max | seeing prior median / max | smoothed median / max | fixes | wrong fixes | first fix median (s) |")
+print("|---|---|---|---|---|---|---|---|")
+for name, rep in (("paper, both ways", paper), ("all sharing a boulder", every)):
+    a = rep["aggregate"]
+    print(f"| {name} | {a['pairs']} ({a['pairs_with_fix']}) | {cm(a['median_rmse_online_m'])} / {cm(a['max_rmse_online_m'])} | "
+          f"{cm(a['median_rmse_online_seeing_prior_m'])} / {cm(a['max_rmse_online_seeing_prior_m'])} | "
+          f"{cm(a['median_rmse_smoothed_m'])} / {cm(a['max_rmse_smoothed_m'])} | {a['accepted']} | {a['wrong_fixes']} | "
+          f"{a['median_time_to_first_fix_s']:.0f} |")
+PY
