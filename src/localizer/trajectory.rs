@@ -65,7 +65,7 @@ enum ExtraFactor {
 }
 
 /// The growing pose graph of one session; the graph's world is the session's odometry
-/// frame (`odom`), pose ids are frame indices into [`SessionLog::frames`]. The odometry
+/// frame (`odom`), pose ids are frame indices into [`FrameLog::frames`]. The odometry
 /// factors carry the measurements with the current estimate of the odometry's biases taken
 /// out ([`TrajectoryGraph::calibrate`]).
 #[derive(Clone)]

@@ -10,7 +10,7 @@
 //! side, so this does not average out. [`rock_grid_from_detections`] fuses with the
 //! viewpoint-bias correction ([`FusionConfig::view_bias_size_fraction`]: every detection
 //! of known size moved that far away from the rover, horizontally; the mission calibrates
-//! it from its own passes, [`crate::mission::view_bias`]), clusters with
+//! it from its own passes, [`crate::localizer::view_bias`]), clusters with
 //! a radius wide enough to keep a large boulder's detections from different sides
 //! together, centres each boulder with the fusion's centroid (the mission's weights near
 //! views, whose depth is good to millimetres, above far ones:

@@ -155,7 +155,7 @@ pub struct MissionReport {
     /// Boulders in session 1's map (the prior).
     pub prior_landmarks: usize,
     /// The viewpoint bias of the detections as session 1 calibrated it
-    /// ([`super::view_bias`]).
+    /// ([`crate::localizer::view_bias`]).
     pub view_bias: ViewBiasReport,
     /// The configuration (its fusion's `view_bias_size_fraction` is the one used).
     pub config: MissionConfig,

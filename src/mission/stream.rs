@@ -16,10 +16,10 @@ use super::Attempt;
 pub fn frame_input(log: &SessionLog, k: usize, gravity: bool) -> Option<StreamFrame> {
     let f = log.frames.get(k)?;
     let tick = log.ticks.get(f.tick)?;
-    let path = match k.checked_sub(1).and_then(|j| log.frames.get(j)) {
-        Some(prev) => Some(path_between(log, prev.tick, f.tick)),
-        None => None,
-    };
+    let path = k
+        .checked_sub(1)
+        .and_then(|j| log.frames.get(j))
+        .map(|prev| path_between(log, prev.tick, f.tick));
     Some(StreamFrame {
         t: f.time_s,
         odom_from_rover: tick.session_from_rover,

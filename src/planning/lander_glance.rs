@@ -4,7 +4,7 @@
 //! `max_range_m` of it) the rover stops, turns on the spot until the nearer camera looks at
 //! the lander, holds still long enough for a camera frame, and drives on. The lander's sides
 //! measured in that frame give the mission an absolute pose fix
-//! ([`crate::mission::lander_factor`]). Turning on the spot sweeps no new ground, so a glance
+//! ([`crate::localizer::lander_factor`]). Turning on the spot sweeps no new ground, so a glance
 //! is always collision-free.
 
 use crate::planning::kinematics::{wrap_angle, Command};
