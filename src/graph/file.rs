@@ -7,7 +7,7 @@
 //! duplicate vertices and edges to missing vertices are errors naming the file and line.
 //! An information matrix that is not positive definite (some public files have them, and
 //! GTSAM and g2o load them) is replaced by the nearest positive-definite one
-//! ([`information::nearest_positive_definite`](super::information::nearest_positive_definite))
+//! ([`information::nearest_positive_definite`])
 //! with one warning that counts them and names the first lines; [`ReadOptions::strict`]
 //! refuses it instead.
 //!
