@@ -23,6 +23,19 @@ import gtsam
 
 SECTION = "## Pose graph (issue 3)"
 
+# Public 3D pose graphs shipped in the gtsam wheel's Data/ that both solvers read the same way.
+# Left out: sphere_smallnoise.graph (its EDGE3 lines carry no information matrix: segloc
+# refuses it naming the line, GTSAM's reader keeps one factor with a garbage noise model),
+# pose3example-offdiagonal-rewritten.txt (the same graph as pose3example-offdiagonal.txt),
+# known_landmark_localization_*.g2o and example_with_vertices.g2o (landmark edges
+# EDGE_SE3_TRACKXYZ, which segloc skips and GTSAM reads: different problems).
+PUBLIC = ["sphere2500.txt", "pose3example.txt", "pose3example-grid.txt", "pose3example-offdiagonal.txt",
+          "pose3Localizationexample.txt", "simpleGraph10gradIter.txt", "toyExample.g2o", "Klaus3.g2o"]
+# Harder graphs from scripts/gen_posegraph.py with bignoise-like noise (σ_R = 0.1 rad,
+# σ_t = 0.1 m per edge): (label, shape, size, seed).
+GENERATED = [("sphere, bignoise-like", "sphere", 50, 1), ("torus, bignoise-like", "torus", 40, 1),
+             ("grid3D, bignoise-like", "grid", 8, 1)]
+
 
 def data_file(name):
     path = os.path.join(os.path.dirname(gtsam.__file__), "Data", name)
@@ -76,6 +89,129 @@ def run_gtsam(graph, initial):
     result = optimizer.optimize()
     seconds = time.perf_counter() - t0
     return graph.error(result), optimizer.iterations(), seconds * 1e3
+
+
+def is_toro(path):
+    for line in open(path):
+        t = line.split()
+        if t:
+            return t[0] in ("EDGE3", "VERTEX3")
+    return False
+
+
+def gtsam_problem(path):
+    """The graph as GTSAM solves it, from the file's vertices (chained odometry for a TORO
+    file without them), the first pose held by an exact equality (as segloc fixes it)."""
+    if is_toro(path):
+        return build_problem(read_toro(path))
+    graph, initial = gtsam.readG2o(path, True)
+    first = min(initial.keys())
+    graph.add(gtsam.NonlinearEqualityPose3(first, initial.atPose3(first)))
+    return graph, initial
+
+
+def zero_to_rounding(cost, initial_cost):
+    return cost <= max(1e-10 * initial_cost, 1e-25)
+
+
+def dataset_rows(args, seg):
+    """GTSAM LM against segloc (default, and from GTSAM's start) on every dataset."""
+    files = [(name, data_file(name)) for name in PUBLIC]
+    gen = os.path.join(os.path.dirname(os.path.abspath(__file__)), "gen_posegraph.py")
+    for label, shape, size, seed in GENERATED:
+        out = os.path.join(args.workdir, f"{shape}{size}_bignoise.g2o")
+        subprocess.run([sys.executable, gen, shape, "-o", out, "--size", str(size), "--seed", str(seed)],
+                       check=True, capture_output=True)
+        files.append((f"{label} (`gen_posegraph.py {shape} --size {size}`)", out))
+    rows = []
+    for name, path in files:
+        graph, initial = gtsam_problem(path)
+        same_start = "odometry" if is_toro(path) and "VERTEX3" not in open(path).read(4096) else "file"
+        runs = args.runs if graph.size() < 2000 else max(3, args.runs // 2)
+        g_runs, s_runs, f_runs = [], [], []
+        for _ in range(runs):
+            g_runs.append(run_gtsam(graph, initial))
+            s_runs.append(seg("optimize", path, "--repeat", "3"))
+            f_runs.append(seg("optimize", path, "--init", same_start, "--repeat", "3"))
+        g_cost, g_iters = g_runs[0][0], g_runs[0][1]
+        row = {
+            "name": name, "poses": s_runs[0]["poses"], "edges": s_runs[0]["factors"],
+            "gtsam_initial": graph.error(initial), "gtsam_cost": g_cost, "gtsam_iters": g_iters,
+            "gtsam_ms": statistics.median(x[2] for x in g_runs), "same_start": same_start,
+            "repaired": s_runs[0]["repaired_information"]["count"],
+        }
+        for key, rs in (("seg", s_runs), ("same", f_runs)):
+            row[key + "_cost"] = rs[0]["final_cost"]
+            row[key + "_iters"] = rs[0]["iterations"]
+            row[key + "_ms"] = statistics.median(r["time_median_ms"] for r in rs)
+            row[key + "_speedup"] = statistics.median(g[2] / r["time_median_ms"] for g, r in zip(g_runs, rs))
+            zero = zero_to_rounding(max(row[key + "_cost"], g_cost), row["gtsam_initial"])
+            row[key + "_rel"] = None if zero else (row[key + "_cost"] - g_cost) / g_cost
+            row[key + "_ok"] = zero or row[key + "_cost"] <= g_cost * (1 + 1e-6)
+        print(f"{name}: gtsam {g_cost:.9g} {row['gtsam_ms']:.2f} ms, segloc {row['seg_cost']:.9g} "
+              f"{row['seg_ms']:.2f} ms ({row['seg_speedup']:.1f}x)", file=sys.stderr)
+        rows.append(row)
+    return rows
+
+
+def dataset_lines(rows):
+    def rel(r, key):
+        return "both 0 (rounding)" if r[key + "_rel"] is None else f"{r[key + '_rel']:+.1e}"
+
+    lines = [
+        "### Public 3D datasets and harder generated ones: final cost and time against GTSAM's LM",
+        "",
+        "Every 3D pose graph of the gtsam wheel's `Data/` that both solvers read as the same problem "
+        "(left out: `sphere_smallnoise.graph`, whose `EDGE3` lines have no information matrix — segloc "
+        "refuses it naming line 2201, GTSAM's reader keeps one factor; the landmark files with "
+        "`EDGE_SE3_TRACKXYZ`, which segloc skips; a rewritten duplicate), and three harder graphs "
+        "generated by `scripts/gen_posegraph.py` with the noise of the public *bignoise* variants "
+        "(σ_R = 0.1 rad, σ_t = 0.1 m per edge; vertices from the chained noisy odometry, as in the "
+        "public files). GTSAM: `LevenbergMarquardtOptimizer` with default parameters from the file's "
+        "vertices (sphere2500: chained odometry), first pose held by an equality. segloc: `graph "
+        "optimize` by default (chordal start), and from GTSAM's start (`--init file`, sphere2500 "
+        "`--init odometry`). Time: median over runs of the solve alone (GTSAM warm in one Python "
+        "process; segloc the median of 3 solves in one process, analysis included). Speed-up: median "
+        "over runs of GTSAM time / segloc time in the same run. Rel. diff = (segloc − GTSAM) / GTSAM, "
+        "negative when segloc ends lower; costs below 1e-10 of the initial cost count as 0. No file "
+        "here has an information matrix that is not positive definite (repaired: 0 everywhere).",
+        "",
+        "| dataset | poses | edges | GTSAM LM cost (iter.) | segloc default cost (iter.) | rel. diff | "
+        "segloc from GTSAM's start cost (iter.) | rel. diff | GTSAM (ms) | segloc default (ms) | "
+        "segloc same start (ms) | speed-up default | speed-up same start |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['name']} | {r['poses']} | {r['edges']} | {r['gtsam_cost']:.9g} ({r['gtsam_iters']}) | "
+            f"{r['seg_cost']:.9g} ({r['seg_iters']}) | {rel(r, 'seg')} | {r['same_cost']:.9g} "
+            f"({r['same_iters']}) | {rel(r, 'same')} | {r['gtsam_ms']:.2f} | {r['seg_ms']:.2f} | "
+            f"{r['same_ms']:.2f} | **{r['seg_speedup']:.1f}×** | {r['same_speedup']:.1f}× |")
+    ok = sum(r["seg_ok"] and r["same_ok"] for r in rows)
+    fast = [r for r in rows if r["seg_speedup"] >= 4]
+    slow = [r for r in rows if r["seg_speedup"] < 4]
+
+    def names(rs):
+        return ", ".join(f"{r['name'].split(' (')[0]} {r['seg_speedup']:.1f}×" for r in rs)
+
+    why = []
+    if [r for r in slow if r["poses"] < 100]:
+        why.append(names([r for r in slow if r["poses"] < 100]) + ": a graph of a few dozen poses, "
+                   "where both solves take about a millisecond and segloc's fixed costs per solve "
+                   "(symbolic analysis, chordal start, allocations) weigh most")
+    if [r for r in slow if r["poses"] >= 100]:
+        why.append(names([r for r in slow if r["poses"] >= 100]) + ": times on a shared machine "
+                   "(load above); the same solve measured in alternating cold runs is in the "
+                   "sphere2500 table above")
+    lines += [
+        "",
+        f"Targets: segloc's cost the same as GTSAM's or lower (within 1e-6 relative) — {ok} of "
+        f"{len(rows)} datasets, both starts" + (" (met)" if ok == len(rows) else " (**not met**)") +
+        f"; ≥ 4× faster than GTSAM by default — {len(fast)} of {len(rows)} datasets"
+        + (" (met)." if not slow else " (**not met** on " + "; ".join(why) + ")."),
+        "",
+    ]
+    return lines
 
 
 def run_gtsam_chordal(graph, initial):
@@ -164,6 +300,14 @@ def machine():
     return platform.processor() or "unknown"
 
 
+def now_date():
+    """The output of `date` (the report's date, with time and zone)."""
+    try:
+        return subprocess.run(["date"], capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return datetime.datetime.now(datetime.timezone.utc).isoformat()
+
+
 def git_revision(root):
     try:
         rev = subprocess.run(["git", "-C", root, "rev-parse", "--short", "HEAD"],
@@ -184,6 +328,8 @@ def main():
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--cpu", type=int, default=0)
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--datasets-only", action="store_true",
+                    help="print the datasets table only (after the sphere2500 runs); write nothing")
     args = ap.parse_args()
     os.makedirs(args.workdir, exist_ok=True)
     if hasattr(os, "sched_setaffinity"):
@@ -224,6 +370,12 @@ def main():
     fastest_default = min(rows["segloc"], key=lambda x: x[2])[3]
     seg_chained = rows["segloc_chained"][0][3]
 
+    # --- public datasets and generated bignoise-like graphs -----------------------------------
+    data_rows = dataset_rows(args, seg)
+    if args.datasets_only:
+        print("\n".join(dataset_lines(data_rows)))
+        return
+
     # --- robustness: 10% of the loop closures replaced by random relative poses ----------------
     clean_out = os.path.join(args.workdir, "clean_out.txt")
     seg("optimize", sphere, "-o", clean_out)
@@ -262,10 +414,12 @@ def main():
     lines = [
         SECTION,
         "",
-        f"Command: `scripts/bench_posegraph.sh --runs {args.runs}` — {datetime.date.today().isoformat()}, "
+        f"Command: `scripts/bench_posegraph.sh --runs {args.runs}` — {now_date()}, "
         f"commit {git_revision(os.path.dirname(os.path.abspath(args.benchmarks)))}, machine `{machine()}` "
         f"({os.cpu_count()} cores, shared; load average {os.getloadavg()[0]:.1f} at the start), gtsam {gtsam_version()} from PyPI, "
-        f"Python {platform.python_version()}. One thread each, pinned to CPU {args.cpu}; the runs "
+        f"Python {platform.python_version()}. One thread each (RAYON_NUM_THREADS=1 for segloc; GTSAM "
+        "wheel from PyPI is built without TBB: single-threaded), pinned to CPU "
+        f"{args.cpu}; the runs "
         "alternate so both solvers see the same load; times exclude file reading; the first ratio is "
         "the median over runs of segloc/GTSAM time in the same run, the second the ratio of the best "
         "times.",
@@ -307,6 +461,7 @@ def main():
         "cold runs of the `segloc` process (analysis included, file reading excluded), against GTSAM "
         "runs repeated in one warm Python process.",
         "",
+        *dataset_lines(data_rows),
         "### Wrong loop closures (10% of the 2,450 loop closures replaced by random relative poses)",
         "",
         "`segloc graph corrupt --fraction 0.1 --seed N` replaces 245 loop closures by a uniformly random "

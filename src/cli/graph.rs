@@ -5,12 +5,14 @@
 //! path that cannot be written), 1 other failures.
 
 use clap::{Args, Subcommand, ValueEnum};
-use segloc::graph::file::{write_atomic, BuildOptions, FileFormat, GraphFile};
+use segloc::graph::file::{
+    write_atomic, BuildOptions, FileFormat, GraphFile, InitialEstimate, ReadOptions,
+};
 use segloc::graph::metrics::trajectory_error;
 use segloc::graph::synthetic::{self, SyntheticConfig};
 use segloc::graph::{
-    Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, RobustKernel,
-    SolverConfig, UpdateMethod,
+    Algorithm, GraphError, IncrementalConfig, IncrementalGraph, Initialization, OptimizationReport,
+    PoseGraph, RobustKernel, SolverConfig, UpdateMethod,
 };
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -53,12 +55,36 @@ pub enum RobustChoice {
 /// Initialisation choice on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum InitChoice {
-    /// Chordal without a robust kernel, chained with one.
+    /// Chordal without a robust kernel; with one, the file's vertices (chained odometry
+    /// when it has none).
     Auto,
-    /// The file's vertices, or chained odometry when it has none.
-    Chained,
     /// Chordal relaxation (rotations, then translations) before iterating.
     Chordal,
+    /// The file's vertices (an error when it has none).
+    File,
+    /// Chained odometry from the edges, whatever the vertices say.
+    Odometry,
+    /// The file's vertices, or chained odometry when it has none (the older name).
+    #[value(hide = true)]
+    Chained,
+}
+
+/// The start a run actually used, as `--json` reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum InitUsed {
+    Chordal,
+    File,
+    Odometry,
+}
+
+impl InitUsed {
+    fn name(self) -> &'static str {
+        match self {
+            InitUsed::Chordal => "chordal",
+            InitUsed::File => "file",
+            InitUsed::Odometry => "odometry",
+        }
+    }
 }
 
 /// Arguments of `segloc graph optimize`.
@@ -81,11 +107,15 @@ pub struct OptimizeArgs {
     /// Use Gauss–Newton instead of Levenberg–Marquardt.
     #[arg(long)]
     pub gauss_newton: bool,
-    /// Initial estimate: the file's (chained odometry without vertices), the chordal
-    /// relaxation, or auto (chordal without a robust kernel, since the relaxation is not
-    /// robust to wrong loop closures; the file's otherwise).
+    /// Initial estimate: the chordal relaxation, the file's vertices, chained odometry, or
+    /// auto (chordal without a robust kernel, since the relaxation is not robust to wrong
+    /// loop closures; otherwise the file's vertices, or chained odometry without them).
     #[arg(long, value_enum, default_value_t = InitChoice::Auto)]
     pub init: InitChoice,
+    /// Refuse information matrices that are not positive definite instead of replacing
+    /// them by the nearest positive-definite ones (with a warning).
+    #[arg(long)]
+    pub strict: bool,
     /// Chord steps after each factorisation (overrides the configuration).
     #[arg(long)]
     pub chord_steps: Option<usize>,
@@ -194,8 +224,8 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
 #[error("{0}")]
 struct UsageError(String);
 
-fn read_file(path: &Path) -> anyhow::Result<GraphFile> {
-    let file = GraphFile::read(path)?;
+fn read_file(path: &Path, options: &ReadOptions) -> anyhow::Result<GraphFile> {
+    let file = GraphFile::read_with(path, options)?;
     for w in &file.warnings {
         eprintln!("warning: {w}");
     }
@@ -229,6 +259,16 @@ fn kernel_of(choice: RobustChoice, scale: Option<f64>) -> anyhow::Result<RobustK
     })
 }
 
+/// How many information matrices were repaired on reading, and the first lines.
+#[derive(Serialize)]
+struct RepairedOutput {
+    count: usize,
+    first_lines: Vec<usize>,
+}
+
+/// Lines of repaired edges listed in `--json`.
+const REPAIRED_LINES_LISTED: usize = 5;
+
 #[derive(Serialize)]
 struct OptimizeOutput<'a> {
     poses: usize,
@@ -244,6 +284,7 @@ struct OptimizeOutput<'a> {
     repeat: usize,
     read_ms: f64,
     init: &'a str,
+    repaired_information: RepairedOutput,
     profile: &'a segloc::graph::Profile,
     converged: bool,
     termination: segloc::graph::Termination,
@@ -253,7 +294,33 @@ struct OptimizeOutput<'a> {
     warnings: &'a [String],
 }
 
-fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
+/// The start a run uses: `--init file` needs vertices; the older `chained` and a robust
+/// `auto` take the vertices when there are some, chained odometry otherwise.
+fn init_used(
+    choice: InitChoice,
+    chordal: bool,
+    file: &GraphFile,
+    input: &Path,
+) -> anyhow::Result<InitUsed> {
+    let has_vertices = !file.vertices.is_empty();
+    Ok(match choice {
+        _ if chordal => InitUsed::Chordal,
+        InitChoice::File if !has_vertices => {
+            return Err(UsageError(format!(
+            "{}: --init file needs vertices and the file has none (use --init odometry or chordal)",
+            input.display()
+        ))
+            .into())
+        }
+        InitChoice::Odometry => InitUsed::Odometry,
+        _ if has_vertices => InitUsed::File,
+        _ => InitUsed::Odometry,
+    })
+}
+
+/// The solver configuration of `optimize` (file, then options) and whether it starts with
+/// the chordal relaxation.
+fn optimize_config(a: &OptimizeArgs) -> anyhow::Result<(SolverConfig, bool)> {
     let mut config = match &a.solver_config {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|source| GraphError::Io {
@@ -270,8 +337,8 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
     }
     let chordal = match a.init {
         InitChoice::Auto => a.robust == RobustChoice::None,
-        InitChoice::Chained => false,
         InitChoice::Chordal => true,
+        InitChoice::File | InitChoice::Odometry | InitChoice::Chained => false,
     };
     if chordal {
         config.initialization = Initialization::Chordal;
@@ -279,13 +346,23 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
     if let Some(c) = a.chord_steps {
         config.chord_steps = c;
     }
+    Ok((config, chordal))
+}
+
+fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
+    let (config, chordal) = optimize_config(a)?;
     if a.print_config {
         print!("{}", toml::to_string(&config)?);
         return Ok(());
     }
     let kernel = kernel_of(a.robust, a.robust_scale)?;
     let t_read = Instant::now();
-    let file = read_file(&a.input)?;
+    let read_options = ReadOptions {
+        strict: a.strict,
+        ..ReadOptions::default()
+    };
+    let file = read_file(&a.input, &read_options)?;
+    let init = init_used(a.init, chordal, &file, &a.input)?;
     let options = BuildOptions {
         loop_closure_kernel: kernel,
         odometry_kernel: if a.robust_odometry {
@@ -294,22 +371,15 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
             RobustKernel::None
         },
         fix_first: true,
+        initial: if init == InitUsed::Odometry {
+            InitialEstimate::Odometry
+        } else {
+            InitialEstimate::File
+        },
     };
-    let mut graph = file.to_pose_graph(&options)?;
+    let graph = file.to_pose_graph(&options)?;
     let read_ms = t_read.elapsed().as_secs_f64() * 1e3;
-    let mut report = graph.optimize(&config)?;
-    let mut times = vec![report.time_ms];
-    for _ in 1..a.repeat.max(1) {
-        // Timing only: solve fresh copies and keep the fastest run's report.
-        let mut again = file.to_pose_graph(&options)?;
-        let r = again.optimize(&config)?;
-        times.push(r.time_ms);
-        if r.time_ms < report.time_ms {
-            report = r;
-            graph = again;
-        }
-    }
-    times.sort_by(f64::total_cmp);
+    let (graph, report, times) = solve_timed(graph, &file, &options, &config, a.repeat)?;
     let time_median_ms = times[times.len() / 2];
     if let Some(out) = &a.output {
         let fmt = output_format(out, file.format);
@@ -334,7 +404,16 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
             time_median_ms,
             repeat: times.len(),
             read_ms,
-            init: if chordal { "chordal" } else { "chained" },
+            init: init.name(),
+            repaired_information: RepairedOutput {
+                count: file.repaired.len(),
+                first_lines: file
+                    .repaired
+                    .iter()
+                    .take(REPAIRED_LINES_LISTED)
+                    .copied()
+                    .collect(),
+            },
             profile: &report.profile,
             converged: report.converged,
             termination: report.termination,
@@ -345,45 +424,74 @@ fn optimize(a: &OptimizeArgs) -> anyhow::Result<()> {
         };
         println!("{}", serde_json::to_string(&out)?);
     } else {
-        println!(
-            "{}: {} poses, {} factors, {} component(s)",
-            a.input.display(),
-            report.poses,
-            report.factors,
-            report.components.len()
-        );
-        for it in &report.log {
-            println!(
-                "  iter {:3}  cost {:.9e} -> {:.9e}  lambda {:.1e}  |step| {:.2e}  rejected {}{}{}",
-                it.iteration,
-                it.cost_before,
-                it.cost_after,
-                it.lambda,
-                it.step_max,
-                it.rejected_steps,
-                if report.gnc_stages > 0 {
-                    format!("  mu {:.3}", it.mu)
-                } else {
-                    String::new()
-                },
-                if it.chord { "  (chord)" } else { "" }
-            );
-        }
-        let p = &report.profile;
-        println!(
-            "time: analysis {:.1} ms, initialize {:.1} ms, linearize {:.1} ms, factorize {:.1} ms ({} times, {} in single precision), solve {:.1} ms, cost {:.1} ms; factor nnz {}",
-            p.analysis_ms, p.initialize_ms, p.linearize_ms, p.factorize_ms, report.factorizations, report.single_precision_factorizations, p.solve_ms, p.cost_ms, report.factor_nnz
-        );
-        println!(
-            "initial cost {:.6}, final cost {:.6}, {} iterations, {:.1} ms, {:?}",
-            report.initial_cost,
-            report.final_cost,
-            report.iterations,
-            report.time_ms,
-            report.termination
-        );
+        print_report(&a.input, &report);
     }
     Ok(())
+}
+
+/// Solves `graph` (built from `file` with `options`), then `repeat − 1` fresh copies for
+/// timing; returns the fastest run's graph and report, and every run's time, sorted.
+fn solve_timed(
+    mut graph: PoseGraph,
+    file: &GraphFile,
+    options: &BuildOptions,
+    config: &SolverConfig,
+    repeat: usize,
+) -> anyhow::Result<(PoseGraph, OptimizationReport, Vec<f64>)> {
+    let mut report = graph.optimize(config)?;
+    let mut times = vec![report.time_ms];
+    for _ in 1..repeat.max(1) {
+        let mut again = file.to_pose_graph(options)?;
+        let r = again.optimize(config)?;
+        times.push(r.time_ms);
+        if r.time_ms < report.time_ms {
+            report = r;
+            graph = again;
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ok((graph, report, times))
+}
+
+/// The human-readable report of `optimize`: the iterations, where the time went, the costs.
+fn print_report(input: &Path, report: &OptimizationReport) {
+    println!(
+        "{}: {} poses, {} factors, {} component(s)",
+        input.display(),
+        report.poses,
+        report.factors,
+        report.components.len()
+    );
+    for it in &report.log {
+        println!(
+            "  iter {:3}  cost {:.9e} -> {:.9e}  lambda {:.1e}  |step| {:.2e}  rejected {}{}{}",
+            it.iteration,
+            it.cost_before,
+            it.cost_after,
+            it.lambda,
+            it.step_max,
+            it.rejected_steps,
+            if report.gnc_stages > 0 {
+                format!("  mu {:.3}", it.mu)
+            } else {
+                String::new()
+            },
+            if it.chord { "  (chord)" } else { "" }
+        );
+    }
+    let p = &report.profile;
+    println!(
+        "time: analysis {:.1} ms, initialize {:.1} ms, linearize {:.1} ms, factorize {:.1} ms ({} times, {} in single precision), solve {:.1} ms, cost {:.1} ms; factor nnz {}",
+        p.analysis_ms, p.initialize_ms, p.linearize_ms, p.factorize_ms, report.factorizations, report.single_precision_factorizations, p.solve_ms, p.cost_ms, report.factor_nnz
+    );
+    println!(
+        "initial cost {:.6}, final cost {:.6}, {} iterations, {:.1} ms, {:?}",
+        report.initial_cost,
+        report.final_cost,
+        report.iterations,
+        report.time_ms,
+        report.termination
+    );
 }
 
 #[derive(Serialize)]
@@ -567,7 +675,7 @@ fn corrupt(a: &CorruptArgs) -> anyhow::Result<()> {
     if !valid {
         return Err(UsageError("need 0 <= --fraction <= 1 and --half-width-m > 0".into()).into());
     }
-    let mut file = read_file(&a.input)?;
+    let mut file = read_file(&a.input, &ReadOptions::default())?;
     let replaced =
         synthetic::corrupt_loop_closures(&mut file.edges, a.fraction, a.half_width_m, a.seed);
     let fmt = output_format(&a.output, file.format);
@@ -581,8 +689,8 @@ fn corrupt(a: &CorruptArgs) -> anyhow::Result<()> {
 }
 
 fn ate(a: &AteArgs) -> anyhow::Result<()> {
-    let est = read_file(&a.estimate)?.initial_estimates();
-    let truth = read_file(&a.truth)?.initial_estimates();
+    let est = read_file(&a.estimate, &ReadOptions::default())?.initial_estimates();
+    let truth = read_file(&a.truth, &ReadOptions::default())?.initial_estimates();
     let err = trajectory_error(&est, &truth, a.align);
     if a.json {
         println!("{}", serde_json::to_string(&err)?);

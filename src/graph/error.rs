@@ -16,6 +16,14 @@ pub enum GraphError {
         /// What is wrong with the line.
         message: String,
     },
+    /// A file holds no vertex and no edge of either format.
+    #[error("{}: no vertex or edge that segloc reads (g2o VERTEX_SE3:QUAT / EDGE_SE3:QUAT, TORO VERTEX3 / EDGE3); {detail}", path.display())]
+    NothingRead {
+        /// File read.
+        path: PathBuf,
+        /// What the file held instead.
+        detail: String,
+    },
     /// Reading or writing a file failed.
     #[error("cannot read or write {}", path.display())]
     Io {

@@ -54,6 +54,7 @@ mod factors;
 pub mod file;
 pub mod g2o;
 mod incremental;
+pub mod information;
 mod initialize;
 mod linear_model;
 pub mod metrics;

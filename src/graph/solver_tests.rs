@@ -379,3 +379,80 @@ fn gnc_rejects_a_wrong_loop_closure() {
         assert!(d.norm() < 1e-4, "{key}: {}", d.norm());
     }
 }
+
+/// A triangle of poses whose loop closure disagrees with the odometry by `miss` metres,
+/// every information matrix `scale · I`, started away from the optimum.
+fn triangle(miss: f64, scale: f64) -> PoseGraph {
+    let mut g = PoseGraph::new();
+    g.add_pose(0, Isometry3::identity()).unwrap();
+    g.add_pose(1, pose([0.2, -0.1, 0.3, 1.4, 0.3, -0.2]))
+        .unwrap();
+    g.add_pose(2, pose([-0.3, 0.2, 1.9, 0.5, 1.6, 0.4]))
+        .unwrap();
+    g.fix(0).unwrap();
+    let info = Matrix6::identity() * scale;
+    let turn = pose([0.0, 0.0, std::f64::consts::FRAC_PI_2, 1.0, 0.0, 0.0]);
+    g.add_between(0, 1, turn, info, RobustKernel::None).unwrap();
+    g.add_between(1, 2, turn, info, RobustKernel::None).unwrap();
+    let closure = turn * turn * tx(miss);
+    g.add_between(0, 2, closure, info, RobustKernel::None)
+        .unwrap();
+    g
+}
+
+/// The optimum of `g` by Gauss–Newton run until rounding stops it.
+fn reference_optimum(mut g: PoseGraph) -> f64 {
+    let config = SolverConfig {
+        algorithm: Algorithm::GaussNewton,
+        relative_tolerance: 0.0,
+        extrapolated_tolerance: 0.0,
+        decrement_tolerance: 0.0,
+        step_tolerance: 1e-15,
+        max_iterations: 60,
+        ..SolverConfig::default()
+    };
+    g.optimize(&config).unwrap().final_cost
+}
+
+#[test]
+fn stopping_rule_reaches_a_tiny_optimum_whatever_the_scale() {
+    // Optimum cost about 1e-6 at unit information; the same problem scaled by 1e-8
+    // (optimum about 1e-14) must stop at the same relative accuracy.
+    for scale in [1.0, 1e-8, 1e6] {
+        let optimum = reference_optimum(triangle(2.5e-3, scale));
+        assert!(optimum > 0.0);
+        let mut g = triangle(2.5e-3, scale);
+        let report = g.optimize(&SolverConfig::default()).unwrap();
+        assert!(report.converged, "scale {scale}: {:?}", report.termination);
+        let rel = (report.final_cost - optimum) / optimum;
+        assert!(
+            rel.abs() <= 1e-6,
+            "scale {scale}: {} vs optimum {optimum} ({rel:e})",
+            report.final_cost
+        );
+        if scale == 1.0 {
+            assert!((5e-7..5e-6).contains(&optimum), "{optimum}");
+        }
+    }
+    // GTSAM's absolute tolerance (1e-5) alone stops far above the scaled optimum.
+    let optimum = reference_optimum(triangle(2.5e-3, 1e-8));
+    let mut g = triangle(2.5e-3, 1e-8);
+    let absolute = SolverConfig {
+        absolute_tolerance: 1e-5,
+        ..SolverConfig::default()
+    };
+    let report = g.optimize(&absolute).unwrap();
+    assert!(report.final_cost > optimum * 2.0, "{}", report.final_cost);
+}
+
+#[test]
+fn a_linearly_converging_run_stops_only_when_little_is_left() {
+    // Large residuals (inconsistent measurements): Gauss–Newton converges linearly, and a
+    // relative decrease of 1e-5 alone leaves more than 1e-6 of the cost to go.
+    let optimum = reference_optimum(triangle(3.0, 1.0));
+    let mut g = triangle(3.0, 1.0);
+    let report = g.optimize(&SolverConfig::default()).unwrap();
+    assert!(report.converged, "{:?}", report.termination);
+    let rel = (report.final_cost - optimum) / optimum;
+    assert!(rel.abs() <= 1e-6, "{} vs {optimum}", report.final_cost);
+}

@@ -201,6 +201,7 @@ pub fn generate(config: &SyntheticConfig) -> SyntheticGraph {
             edges,
             fixed: vec![0],
             warnings: Vec::new(),
+            repaired: Vec::new(),
         },
     }
 }

@@ -234,129 +234,347 @@ fn levenberg_marquardt(
     mu: f64,
     state: &mut RunState,
 ) -> Result<Termination, GraphError> {
-    let gauss_newton = config.algorithm == Algorithm::GaussNewton;
-    let mut lambda = config.lambda_initial;
-    let mut step = vec![0.0; system.dim()];
-    let mut candidate = graph.poses.clone();
+    let mut run = LmRun {
+        step: vec![0.0; system.dim()],
+        candidate: graph.poses.clone(),
+        graph,
+        system,
+        config,
+        mu,
+        state,
+        lambda: config.lambda_initial,
+        last_decrease: f64::INFINITY,
+    };
     let mut chords_left = 0;
-    let mut last_decrease = f64::INFINITY;
+    // Absolute decrease of the previous accepted step (none yet).
+    let mut previous_decrease = None;
     for _ in 0..config.max_iterations {
         // A chord step needs only the new gradient; the Hessian is assembled when a
         // factorisation follows.
         let chord_possible =
-            chords_left > 0 && system.has_factor() && last_decrease < config.chord_regime;
-        let t = Instant::now();
-        let cost = if chord_possible {
-            linearize_gradient(&graph.factors, &graph.poses, system, mu)
-        } else {
-            linearize(&graph.factors, &graph.poses, system, mu)
-        };
-        state.profile.linearize_ms += ms_since(t);
+            chords_left > 0 && run.system.has_factor() && run.last_decrease < config.chord_regime;
+        let cost = run.linearize(!chord_possible);
         if cost <= 0.0 {
             return Ok(Termination::ZeroCost);
         }
-        let grad_max = system.gradient.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+        let grad_max = run
+            .system
+            .gradient
+            .iter()
+            .fold(0.0f64, |m, g| m.max(g.abs()));
         if grad_max <= config.gradient_tolerance {
             return Ok(Termination::SmallGradient);
         }
-        state.iterations += 1;
-        let mut rejected = 0;
-        let mut chord = false;
-        let mut new_cost = f64::NAN;
+        run.state.iterations += 1;
+        let mut outcome = StepOutcome::Failed;
         if chord_possible {
             chords_left -= 1;
-            let t = Instant::now();
-            let ok = system.solve(&mut step);
-            state.profile.solve_ms += ms_since(t);
-            if ok {
-                let t = Instant::now();
-                let c = try_step(graph, system, &step, &mut candidate, mu);
-                state.profile.cost_ms += ms_since(t);
-                if c.is_finite() && c <= cost {
-                    chord = true;
-                    new_cost = c;
-                }
-            }
+            outcome = run.chord_step(cost);
         }
-        if !chord {
+        let chord = matches!(outcome, StepOutcome::Accepted { .. });
+        if matches!(outcome, StepOutcome::Failed) {
             if chord_possible {
                 // The chord step failed: assemble the Hessian at this estimate.
-                let t = Instant::now();
-                linearize(&graph.factors, &graph.poses, system, mu);
-                state.profile.linearize_ms += ms_since(t);
+                run.linearize(true);
             }
-            new_cost = loop {
-                let lam = if gauss_newton { 0.0 } else { lambda };
-                let damping = config.damping;
-                let t = Instant::now();
-                let damp = |_, h: f64| match damping {
-                    Damping::Identity => lam,
-                    Damping::Diagonal => lam * h.clamp(1e-6, 1e32),
-                };
-                let single = last_decrease > config.single_precision_regime;
-                let mut ok = single && system.factorize_damped_in(Precision::Single, damp);
-                if ok {
-                    state.single_precision_factorizations += 1;
-                } else {
-                    ok = system.factorize_damped(damp);
-                }
-                state.profile.factorize_ms += ms_since(t);
-                let t = Instant::now();
-                let near = last_decrease < config.chord_regime;
-                let ok = ok && system.solve_refined(&mut step, near);
-                state.profile.solve_ms += ms_since(t);
-                if !ok && gauss_newton {
-                    return Ok(Termination::Singular);
-                }
-                if ok {
-                    let t = Instant::now();
-                    let c = try_step(graph, system, &step, &mut candidate, mu);
-                    state.profile.cost_ms += ms_since(t);
-                    if gauss_newton || (c.is_finite() && c <= cost) {
-                        break c;
-                    }
-                }
-                rejected += 1;
-                lambda *= config.lambda_factor;
-                if lambda > config.lambda_max {
-                    return Ok(Termination::LambdaLimit);
-                }
-            };
-            state.factorizations += 1 + rejected;
+            outcome = run.damped_step(cost);
             chords_left = config.chord_steps;
         }
-        std::mem::swap(&mut graph.poses, &mut candidate);
-        let step_max = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-        if config.log_iterations {
-            state.log.push(IterationLog {
-                iteration: state.iterations,
+        let (new_cost, stop_now, rejected, model) = match outcome {
+            StepOutcome::Accepted {
+                cost,
+                stop,
+                rejected,
+                model,
+            } => (cost, stop, rejected, model),
+            StepOutcome::Stop(t) => return Ok(t),
+            StepOutcome::Failed => return Ok(Termination::LambdaLimit),
+        };
+        let step_max = run.accept(cost, new_cost, rejected, chord);
+        if let Some(t) = stop_now {
+            return Ok(t);
+        }
+        let decreases = (cost - new_cost, previous_decrease);
+        if let Some(t) = stop_after_step(cost, new_cost, decreases, step_max, &model, config) {
+            return Ok(t);
+        }
+        previous_decrease = Some(cost - new_cost);
+    }
+    Ok(Termination::MaxIterations)
+}
+
+/// How an iteration's step attempt ended.
+enum StepOutcome {
+    /// A step lowered (or kept) the cost; `stop` is set when the test before it found the
+    /// run converged (the step is taken anyway: it is already computed and lowers the cost).
+    Accepted {
+        cost: f64,
+        stop: Option<Termination>,
+        rejected: usize,
+        model: StepModel,
+    },
+    /// No step was accepted, and the run ends.
+    Stop(Termination),
+    /// No step was accepted (a chord step that did not lower the cost).
+    Failed,
+}
+
+/// The state of one Levenberg–Marquardt run.
+struct LmRun<'a> {
+    graph: &'a mut PoseGraph,
+    system: &'a mut NormalEquations<6>,
+    config: &'a SolverConfig,
+    mu: f64,
+    state: &'a mut RunState,
+    step: Vec<f64>,
+    candidate: Vec<Isometry3<f64>>,
+    lambda: f64,
+    /// Relative decrease of the last accepted step.
+    last_decrease: f64,
+}
+
+impl LmRun<'_> {
+    /// Cost at the estimate, with the normal equations (`full`) or the gradient alone.
+    fn linearize(&mut self, full: bool) -> f64 {
+        let t = Instant::now();
+        let (factors, poses) = (&self.graph.factors, &self.graph.poses);
+        let cost = if full {
+            linearize(factors, poses, self.system, self.mu)
+        } else {
+            linearize_gradient(factors, poses, self.system, self.mu)
+        };
+        self.state.profile.linearize_ms += ms_since(t);
+        cost
+    }
+
+    /// Cost at `estimate · Exp(step)` (into the candidate).
+    fn try_current_step(&mut self) -> f64 {
+        let t = Instant::now();
+        let c = try_step(
+            self.graph,
+            self.system,
+            &self.step,
+            &mut self.candidate,
+            self.mu,
+        );
+        self.state.profile.cost_ms += ms_since(t);
+        c
+    }
+
+    /// A chord step: the last factor with the new gradient.
+    fn chord_step(&mut self, cost: f64) -> StepOutcome {
+        let t = Instant::now();
+        let ok = self.system.solve(&mut self.step);
+        self.state.profile.solve_ms += ms_since(t);
+        if !ok {
+            return StepOutcome::Failed;
+        }
+        let model = StepModel::of(self.system, &self.step);
+        let stop = model
+            .converged(cost, self.config)
+            .then_some(Termination::SmallDecrement);
+        let c = self.try_current_step();
+        if c.is_finite() && c <= cost {
+            return StepOutcome::Accepted {
+                cost: c,
+                stop,
+                rejected: 0,
+                model,
+            };
+        }
+        stop.map_or(StepOutcome::Failed, StepOutcome::Stop)
+    }
+
+    /// Factorise `H + λD` and step, raising λ until the cost does not increase.
+    fn damped_step(&mut self, cost: f64) -> StepOutcome {
+        let gauss_newton = self.config.algorithm == Algorithm::GaussNewton;
+        let mut rejected = 0;
+        loop {
+            let ok = self.factorize_and_solve(if gauss_newton { 0.0 } else { self.lambda });
+            if !ok && gauss_newton {
+                return StepOutcome::Stop(Termination::Singular);
+            }
+            let model = StepModel::of(self.system, &self.step);
+            let stop = if ok {
+                stop_before_step(&model, &self.step, cost, self.config)
+            } else {
+                None
+            };
+            if ok {
+                let c = self.try_current_step();
+                if gauss_newton || (c.is_finite() && c <= cost) {
+                    self.state.factorizations += 1 + rejected;
+                    return StepOutcome::Accepted {
+                        cost: c,
+                        stop,
+                        rejected,
+                        model,
+                    };
+                }
+            }
+            rejected += 1;
+            if let Some(t) = stop {
+                self.state.factorizations += rejected;
+                return StepOutcome::Stop(t);
+            }
+            self.lambda *= self.config.lambda_factor;
+            if self.lambda > self.config.lambda_max {
+                self.state.factorizations += rejected;
+                return StepOutcome::Stop(Termination::LambdaLimit);
+            }
+        }
+    }
+
+    /// Factorises `H + D(λ)` (in single precision while far from the optimum) and solves
+    /// for the step; false when either fails.
+    fn factorize_and_solve(&mut self, lam: f64) -> bool {
+        let damping = self.config.damping;
+        let t = Instant::now();
+        let damp = |_, h: f64| match damping {
+            Damping::Identity => lam,
+            Damping::Diagonal => lam * h.clamp(1e-6, 1e32),
+        };
+        let single = self.last_decrease > self.config.single_precision_regime;
+        let mut ok = single && self.system.factorize_damped_in(Precision::Single, damp);
+        if ok {
+            self.state.single_precision_factorizations += 1;
+        } else {
+            ok = self.system.factorize_damped(damp);
+        }
+        self.state.profile.factorize_ms += ms_since(t);
+        let t = Instant::now();
+        let near = self.last_decrease < self.config.chord_regime;
+        let ok = ok && self.system.solve_refined(&mut self.step, near);
+        self.state.profile.solve_ms += ms_since(t);
+        ok
+    }
+
+    /// Moves the estimate to the candidate, logs the iteration and updates λ; returns the
+    /// largest step entry.
+    fn accept(&mut self, cost: f64, new_cost: f64, rejected: usize, chord: bool) -> f64 {
+        let gauss_newton = self.config.algorithm == Algorithm::GaussNewton;
+        std::mem::swap(&mut self.graph.poses, &mut self.candidate);
+        let step_max = self.step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+        if self.config.log_iterations {
+            self.state.log.push(IterationLog {
+                iteration: self.state.iterations,
                 cost_before: cost,
                 cost_after: new_cost,
-                lambda: if gauss_newton { 0.0 } else { lambda },
+                lambda: if gauss_newton { 0.0 } else { self.lambda },
                 step_max,
                 rejected_steps: rejected,
                 chord,
-                mu,
-                time_ms: ms_since(state.start),
+                mu: self.mu,
+                time_ms: ms_since(self.state.start),
             });
         }
         if !chord {
-            lambda = (lambda / config.lambda_factor).max(config.lambda_min);
+            self.lambda = (self.lambda / self.config.lambda_factor).max(self.config.lambda_min);
         }
-        let decrease = cost - new_cost;
-        last_decrease = decrease / cost;
-        if new_cost <= 0.0 {
-            return Ok(Termination::ZeroCost);
-        }
-        if step_max <= config.step_tolerance {
-            return Ok(Termination::SmallStep);
-        }
-        if decrease <= config.relative_tolerance * cost {
-            return Ok(Termination::RelativeDecrease);
-        }
-        if decrease <= config.absolute_tolerance {
-            return Ok(Termination::AbsoluteDecrease);
+        self.last_decrease = (cost - new_cost) / cost;
+        step_max
+    }
+}
+
+/// What the quadratic model says about a step `δ` solving `(H + D) δ = −g`.
+#[derive(Clone, Copy, Debug, Default)]
+struct StepModel {
+    /// `−gᵀδ = δᵀ(H + D)δ`.
+    slope: f64,
+    /// `δᵀDδ`, the damping's part of it.
+    damping: f64,
+}
+
+impl StepModel {
+    fn of(system: &NormalEquations<6>, step: &[f64]) -> Self {
+        let slope = -system
+            .gradient
+            .iter()
+            .zip(step)
+            .map(|(g, d)| g * d)
+            .sum::<f64>();
+        Self {
+            slope,
+            damping: system.damping_form(step),
         }
     }
-    Ok(Termination::MaxIterations)
+
+    /// Decrease predicted by the undamped model along `δ`:
+    /// `−gᵀδ − ½δᵀHδ = ½(−gᵀδ + δᵀDδ)`; without damping, the Newton decrement `½gᵀH⁻¹g`.
+    fn predicted(&self) -> f64 {
+        0.5 * (self.slope + self.damping)
+    }
+
+    /// True when the damping made most of the step's model (`δᵀDδ > ½ δᵀ(H + D)δ`): the
+    /// step was shortened by λ, so neither its size nor its decrease measures convergence.
+    fn damping_dominated(&self) -> bool {
+        self.damping > 0.5 * self.slope
+    }
+
+    /// The Newton-decrement test ([`SolverConfig::decrement_tolerance`]).
+    fn converged(&self, cost: f64, config: &SolverConfig) -> bool {
+        !self.damping_dominated()
+            && self.predicted().is_finite()
+            && self.predicted() <= config.decrement_tolerance * cost
+    }
+}
+
+/// The stopping rule before a freshly factorised step is tried (the step is still taken if
+/// it lowers the cost): the Newton decrement is below `decrement_tolerance` of the cost, or
+/// the step (shrunk by a growing λ after rejections, which happens only where rounding keeps
+/// the cost from decreasing) is below `step_tolerance`.
+fn stop_before_step(
+    model: &StepModel,
+    step: &[f64],
+    cost: f64,
+    config: &SolverConfig,
+) -> Option<Termination> {
+    if model.converged(cost, config) {
+        return Some(Termination::SmallDecrement);
+    }
+    let step_max = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+    (step_max <= config.step_tolerance).then_some(Termination::SmallStep)
+}
+
+/// Decrease still to come if the decreases keep shrinking by their last ratio
+/// `ρ = d / d_prev`: `d ρ / (1 − ρ)`; `d` itself without a previous step, infinite when
+/// they do not shrink.
+fn extrapolated_decrease(decrease: f64, previous: Option<f64>) -> f64 {
+    match previous {
+        None => decrease,
+        Some(p) if decrease < p => {
+            let rho = decrease / p;
+            decrease * rho / (1.0 - rho)
+        }
+        Some(_) => f64::INFINITY,
+    }
+}
+
+/// The stopping rule after an accepted step from `cost` to `new_cost` (`decreases`: this
+/// step's and the previous step's): zero cost, a small step, a small relative decrease
+/// that the damping did not cause and after which little is left to come (a linearly
+/// converging run, as on large-residual graphs, stops only once the extrapolated remainder
+/// is below `extrapolated_tolerance`), or (if configured) a small absolute decrease.
+fn stop_after_step(
+    cost: f64,
+    new_cost: f64,
+    decreases: (f64, Option<f64>),
+    step_max: f64,
+    model: &StepModel,
+    config: &SolverConfig,
+) -> Option<Termination> {
+    let (decrease, previous) = decreases;
+    let small = decrease <= config.relative_tolerance * cost
+        && extrapolated_decrease(decrease, previous) <= config.extrapolated_tolerance * cost;
+    if new_cost <= 0.0 {
+        Some(Termination::ZeroCost)
+    } else if step_max <= config.step_tolerance {
+        Some(Termination::SmallStep)
+    } else if small && !model.damping_dominated() {
+        Some(Termination::RelativeDecrease)
+    } else if decrease <= config.absolute_tolerance {
+        Some(Termination::AbsoluteDecrease)
+    } else {
+        None
+    }
 }

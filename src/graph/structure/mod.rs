@@ -417,6 +417,16 @@ impl<const B: usize> NormalEquations<B> {
         ok
     }
 
+    /// `xᵀ D x` for the damping `D` of the last factorisation (the part it added to the
+    /// Hessian's diagonal).
+    pub fn damping_form(&self, x: &[f64]) -> f64 {
+        self.diag_pos
+            .iter()
+            .zip(x)
+            .map(|(&p, &v)| (self.damped[p] - self.hessian[p]) * v * v)
+            .sum()
+    }
+
     /// Block column of each variable (`None` for held variables), indexed by variable.
     pub fn block_of(&self, num_vars: usize) -> Vec<Option<usize>> {
         let mut out = vec![None; num_vars];
