@@ -10,7 +10,7 @@
 
 use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
-use super::relocalization::yaw_sigma_deg;
+use super::relocalization::accepted_answer;
 use super::report::{AttemptRecord, AttemptStatus, Measurement};
 use super::submap::{frame_nearest, landmark_positions};
 use super::trajectory::TrajectoryGraph;
@@ -247,25 +247,9 @@ fn close_loop(
     let last = recent.end.saturating_sub(1);
     let t = log.frames.get(last).map_or(0.0, |f| f.t);
     let mut record = AttemptRecord::pending(t, last, query.len());
-    let reloc = match Relocalizer::new(old.clone(), config.relocalize.clone())
-        .and_then(|r| r.relocalize(&query))
-    {
-        Ok(r) => r,
-        Err(e) => {
-            record.status = AttemptStatus::Refused(format!("error: {e}"));
-            attempts.push(record);
-            return None;
-        }
-    };
-    record.inliers = reloc.inliers.len();
-    record.yaw_sigma_deg = Some(yaw_sigma_deg(&reloc.information));
-    let Some(old_from_recent) = reloc.prior_from_query else {
-        record.status = AttemptStatus::Refused(
-            reloc
-                .refusal
-                .as_ref()
-                .map_or_else(|| "refused".to_string(), |r| r.to_string()),
-        );
+    let answer =
+        Relocalizer::new(old.clone(), config.relocalize.clone()).and_then(|r| r.relocalize(&query));
+    let Some((reloc, old_from_recent)) = accepted_answer(&mut record, answer) else {
         attempts.push(record);
         return None;
     };

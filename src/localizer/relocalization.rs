@@ -11,7 +11,7 @@ use super::trajectory::TrajectoryGraph;
 use super::LocalizerConfig;
 use crate::graph::se3;
 use crate::landmarks::{fuse_detections, FusionConfig};
-use crate::relocalize::Relocalizer;
+use crate::relocalize::{Relocalization, RelocalizeError, Relocalizer};
 use nalgebra::{Isometry3, Matrix6};
 
 /// A relocalization the relocalizer accepted, before the gate has confirmed it.
@@ -158,23 +158,8 @@ pub fn attempt(
     };
     let query = fuse_detections(&set, &fusion);
     let mut record = AttemptRecord::pending(log.frames[k].t, k, query.len());
-    let reloc = match relocalizer.relocalize(&query) {
-        Ok(r) => r,
-        Err(e) => {
-            record.status = AttemptStatus::Refused(format!("error: {e}"));
-            attempts.push(record);
-            return None;
-        }
-    };
-    record.inliers = reloc.inliers.len();
-    record.yaw_sigma_deg = Some(yaw_sigma_deg(&reloc.information));
-    let Some(prior_from_odom) = reloc.prior_from_query else {
-        record.status = AttemptStatus::Refused(
-            reloc
-                .refusal
-                .as_ref()
-                .map_or_else(|| "refused".to_string(), |r| r.to_string()),
-        );
+    let answer = relocalizer.relocalize(&query);
+    let Some((reloc, prior_from_odom)) = accepted_answer(&mut record, answer) else {
         attempts.push(record);
         return None;
     };
@@ -201,6 +186,35 @@ pub fn attempt(
         information,
         attempt: attempts.len() - 1,
     })
+}
+
+/// The relocalizer's answer recorded in `record` (inliers, yaw σ, and the refusal when it
+/// refused or failed); the answer and its `prior_from_query` when it accepted.
+pub fn accepted_answer(
+    record: &mut AttemptRecord,
+    answer: Result<Relocalization, RelocalizeError>,
+) -> Option<(Relocalization, Isometry3<f64>)> {
+    let reloc = match answer {
+        Ok(r) => r,
+        Err(e) => {
+            record.status = AttemptStatus::Refused(format!("error: {e}"));
+            return None;
+        }
+    };
+    record.inliers = reloc.inliers.len();
+    record.yaw_sigma_deg = Some(yaw_sigma_deg(&reloc.information));
+    match reloc.prior_from_query {
+        Some(prior_from_query) => Some((reloc, prior_from_query)),
+        None => {
+            record.status = AttemptStatus::Refused(
+                reloc
+                    .refusal
+                    .as_ref()
+                    .map_or_else(|| "refused".to_string(), |r| r.to_string()),
+            );
+            None
+        }
+    }
 }
 
 /// Standard deviation of the yaw (rotation about z, tangent index 2) implied by an

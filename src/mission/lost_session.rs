@@ -3,11 +3,11 @@
 //! re-optimises, tell the planner where the session's frame lies in the world.
 
 use super::progress::{MissionProgress, MissionStage};
-use super::stream::{frame_input, rmse_m, scored_attempt};
+use super::stream::{push_new_frames, rmse_m, scored_attempts};
 use super::{Attempt, MissionConfig, MissionError};
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::odometry_bias::OdometryBias;
-use crate::localizer::{Localizer, LocalizerEvent};
+use crate::localizer::Localizer;
 use crate::sim::moon::Moon;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::{Isometry3, Point2};
@@ -77,28 +77,15 @@ pub fn localize_session(
             time_s: log.ticks.last().map_or(0.0, |t| t.time_s),
             duration_s: session.duration_s,
         });
-        let mut reoptimized = false;
-        while let Some(frame) = frame_input(log, pushed, false) {
-            let out = localizer.push_frame(&frame)?;
-            reoptimized |= out.events.contains(&LocalizerEvent::Reoptimized);
-            pushed += 1;
-        }
+        let reoptimized = push_new_frames(&mut localizer, log, &mut pushed)?;
         if let (true, Some(world_from_session)) = (reoptimized, localizer.prior_from_odom()) {
             sim.set_world_from_session_estimate(&world_from_session);
         }
     }
     let log = sim.finish();
-    while let Some(frame) = frame_input(&log, pushed, false) {
-        localizer.push_frame(&frame)?;
-        pushed += 1;
-    }
+    push_new_frames(&mut localizer, &log, &mut pushed)?;
     let result = localizer.finish()?;
-    let wrong = (config.wrong_translation_m, config.wrong_rotation_deg);
-    let attempts = result
-        .attempts
-        .iter()
-        .map(|a| scored_attempt(2, a, &log, wrong))
-        .collect();
+    let attempts = scored_attempts(2, &result.attempts, &log, config);
     Ok(LocalizedSession {
         rmse_graph_m: rmse_m(&log, &result.poses),
         rmse_before_adjustment_m: rmse_m(&log, &result.poses_before_adjustment),

@@ -3,13 +3,13 @@
 //! drift since the start is known).
 
 use super::progress::{MissionProgress, MissionStage};
-use super::stream::{frame_input, rmse_m, scored_attempt};
+use super::stream::{push_new_frames, rmse_m, scored_attempts};
 use super::{Attempt, MissionConfig, MissionError};
 use crate::landmarks::FusionConfig;
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::view_bias::ViewBiasCalibration;
-use crate::localizer::{Localizer, LocalizerEvent};
+use crate::localizer::Localizer;
 use crate::sim::moon::Moon;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::Isometry3;
@@ -83,28 +83,15 @@ pub fn map_session(
             time_s: sim.log().ticks.last().map_or(0.0, |t| t.time_s),
             duration_s: session.duration_s,
         });
-        let mut reoptimized = false;
-        while let Some(frame) = frame_input(sim.log(), pushed, false) {
-            let out = localizer.push_frame(&frame)?;
-            reoptimized |= out.events.contains(&LocalizerEvent::Reoptimized);
-            pushed += 1;
-        }
+        let reoptimized = push_new_frames(&mut localizer, sim.log(), &mut pushed)?;
         if let (true, Some(planner_from_session)) = (reoptimized, localizer.online_corrections()) {
             sim.reanchor_planner(&planner_from_session);
         }
     }
     let log = sim.finish();
-    while let Some(frame) = frame_input(&log, pushed, false) {
-        localizer.push_frame(&frame)?;
-        pushed += 1;
-    }
+    push_new_frames(&mut localizer, &log, &mut pushed)?;
     let result = localizer.finish()?;
-    let wrong = (config.wrong_translation_m, config.wrong_rotation_deg);
-    let attempts = result
-        .attempts
-        .iter()
-        .map(|a| scored_attempt(1, a, &log, wrong))
-        .collect();
+    let attempts = scored_attempts(1, &result.attempts, &log, config);
     Ok(MappedSession {
         rmse_graph_m: rmse_m(&log, &result.poses),
         rmse_before_adjustment_m: rmse_m(&log, &result.poses_before_adjustment),

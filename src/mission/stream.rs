@@ -3,7 +3,7 @@
 //! and pitch already come from the IMU's gravity, the odometry's path since the previous
 //! frame, the detections and the lander points); the true poses stay here.
 
-use crate::localizer::{AttemptRecord, Measurement};
+use crate::localizer::{AttemptRecord, Localizer, LocalizerError, LocalizerEvent, Measurement};
 use crate::sim::session::SessionLog;
 use nalgebra::Isometry3;
 use segloc_maps::frames::{FrameDetection, FramePath, StreamFrame};
@@ -99,6 +99,35 @@ pub fn odometry_in_world(log: &SessionLog) -> Vec<Isometry3<f64>> {
         .iter()
         .filter_map(|f| log.ticks.get(f.tick))
         .map(|t| world_from_session * t.session_from_rover)
+        .collect()
+}
+
+/// Feed `localizer` the frames of `log` from `*pushed` on; whether it re-optimised.
+pub fn push_new_frames(
+    localizer: &mut Localizer,
+    log: &SessionLog,
+    pushed: &mut usize,
+) -> Result<bool, LocalizerError> {
+    let mut reoptimized = false;
+    while let Some(frame) = frame_input(log, *pushed, false) {
+        let out = localizer.push_frame(&frame)?;
+        reoptimized |= out.events.contains(&LocalizerEvent::Reoptimized);
+        *pushed += 1;
+    }
+    Ok(reoptimized)
+}
+
+/// Every attempt of session `session` scored against the truth of `log`.
+pub fn scored_attempts(
+    session: usize,
+    records: &[AttemptRecord],
+    log: &SessionLog,
+    config: &super::MissionConfig,
+) -> Vec<Attempt> {
+    let wrong = (config.wrong_translation_m, config.wrong_rotation_deg);
+    records
+        .iter()
+        .map(|a| scored_attempt(session, a, log, wrong))
         .collect()
 }
 
