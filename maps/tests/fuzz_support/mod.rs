@@ -247,9 +247,15 @@ pub fn mutate(seed: &[u8], ops: &[Op]) -> Vec<u8> {
             }
             _ => {}
         }
+        // compounding long lines and duplications could reach hundreds of MB: a
+        // parser linear in its input would then "hang" (and shrinking would never end)
+        b.truncate(MAX_INPUT_BYTES);
     }
     b
 }
+
+/// Largest mutated input.
+pub const MAX_INPUT_BYTES: usize = 1 << 20;
 
 /// Inputs for a parser whose valid files include `seeds`: mostly mutations of a seed, some
 /// purely random bytes and random printable text.
