@@ -234,7 +234,9 @@ pub fn parse_grid_csv(text: &str, source: &Path) -> Result<LacGrid, MapError> {
             ))
         }
     }
-    let mut rows = Vec::with_capacity(LAC_CELLS_PER_SIDE * LAC_CELLS_PER_SIDE);
+    // a row takes at least 12 bytes (`0,0,0,0,,0\n`): reserve for the rows the text can hold
+    let mut rows =
+        Vec::with_capacity((text.len() / 12).min(LAC_CELLS_PER_SIDE * LAC_CELLS_PER_SIDE));
     for (index, line) in lines {
         if line.trim().is_empty() {
             continue;

@@ -254,7 +254,9 @@ fn parse_row(line: &str) -> Result<TraverseFrame, String> {
     } else {
         raw
     };
-    let mut boulders = Vec::with_capacity(count);
+    // the count is the file's word: reserve no more than the list's text can hold (a
+    // tuple takes at least 7 bytes), so a huge count is an error, not an allocation
+    let mut boulders = Vec::with_capacity(count.min(list.len() / 7));
     parse_point_list(list, &mut boulders)?;
     if boulders.len() != count {
         return Err(format!(
@@ -362,6 +364,24 @@ mod tests {
             .unwrap()
             .frames
             .is_empty());
+    }
+
+    /// Fuzz regression (issue 25 §3): a huge `detections` count reserved that many points
+    /// before reading the list (`1000000000000` aborted the process asking for 24 TB;
+    /// `18446744073709551615` panicked with a capacity overflow).
+    #[test]
+    fn fuzz_huge_detection_count_is_an_error_not_an_allocation() {
+        for count in ["1000000000000", "18446744073709551615"] {
+            let e = err(&format!(
+                "frame,x,y,z,detections,boulders\n1,0,0,0,{count},[]\n"
+            ));
+            assert_eq!(
+                e,
+                format!(
+                    "dir/traverse_3.csv:2: detections says {count} but boulders lists 0 tuples"
+                )
+            );
+        }
     }
 
     #[test]

@@ -133,7 +133,9 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<AssociationProblem, MapE
     let query = (0..n_query)
         .map(|_| point("query"))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut associations = Vec::with_capacity(n_assoc);
+    // n_assoc is the header's word: reserve no more than the text can hold (`i j\n` is 4
+    // bytes), so a huge count is a short-file error, not an allocation
+    let mut associations = Vec::with_capacity(n_assoc.min(text.len() / 4));
     for _ in 0..n_assoc {
         let (k, l) = lines
             .next()
@@ -215,6 +217,21 @@ mod tests {
         let p = parse_problem(text, Path::new("p.txt")).unwrap();
         assert_eq!(p.associations.len(), 2);
         assert!(matches!(p.invariant, Invariant::GravityAligned { .. }));
+    }
+
+    /// Fuzz regression (issue 25 §3): a huge association count in the header reserved
+    /// that many associations before reading them (8 TB for `1000000000000`: the process
+    /// aborted).
+    #[test]
+    fn fuzz_huge_association_count_is_an_error_not_an_allocation() {
+        let text = "1 1 1000000000000 0.3 0.1\n0 0 0\n0 0 0\n0 0\n";
+        let err = parse_problem(text, Path::new("p.txt"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("p.txt") && err.contains("ends before all associations"),
+            "{err}"
+        );
     }
 
     #[test]

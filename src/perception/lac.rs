@@ -110,10 +110,19 @@ impl LacRecording {
                 .to_string_lossy()
                 .trim_start_matches("./")
                 .to_string();
-            let mut bytes = Vec::with_capacity(entry.size() as usize);
+            // the size is the header's word: reserve at most 1 MiB up front (the data
+            // read decides the rest), and a member shorter than its header says is truncated
+            let size = entry.size();
+            let mut bytes = Vec::with_capacity(size.min(1 << 20) as usize);
             entry
                 .read_to_end(&mut bytes)
                 .map_err(|e| bad(format!("{name}: truncated or corrupt: {e}")))?;
+            if bytes.len() as u64 != size {
+                return Err(bad(format!(
+                    "{name}: truncated: the header says {size} bytes, the archive holds {}",
+                    bytes.len()
+                )));
+            }
             members.insert(name, bytes);
         }
         // some recordings wrap everything in one top-level folder
@@ -463,6 +472,26 @@ mod tests {
             .image("FrontRight", ImageKind::Semantic, 20)
             .unwrap()
             .is_none());
+    }
+
+    /// Fuzz regression (issue 25 §3): a member header claiming 1 TiB reserved that much
+    /// before reading (the process aborted); the member is now a truncation error.
+    #[test]
+    fn fuzz_huge_member_size_is_an_error_not_an_allocation() {
+        let mut header = tar::Header::new_gnu();
+        header.set_path("frames.csv").unwrap();
+        header.set_size(1 << 40);
+        header.set_mode(0o644);
+        header.set_cksum();
+        let mut tar = header.as_bytes().to_vec();
+        tar.extend_from_slice(b"frame\n");
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        std::io::Write::write_all(&mut gz, &tar).unwrap();
+        let bytes = gz.finish().unwrap();
+        let err = LacRecording::from_reader(&bytes[..], Path::new("t.lac"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("t.lac") && err.contains("frames.csv"), "{err}");
     }
 
     #[test]
