@@ -219,3 +219,55 @@ fn a_lost_session_drives_safely_and_knows_its_frame() {
         errors[errors.len() / 2]
     );
 }
+
+/// Diagnostic (run with `--ignored --nocapture`): the fit's error against the truth on
+/// simulated sessions, and its normalised squared error (≈ 3 if the information is right).
+#[test]
+#[ignore]
+fn fit_error_on_simulated_sessions() {
+    for seed in 1..4 {
+        let moon = Moon::generate(&MoonConfig::default(), seed).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let config = SessionConfig {
+            duration_s: 300.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        let log = run_session(&moon, &config, seed * 2).unwrap();
+        let (mut n, mut sum, mut chi, mut ex, mut ey, mut eyaw) = (0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for f in &log.frames {
+            let truth = log.ticks[f.tick].world_from_rover;
+            let guess =
+                nalgebra::Isometry3::new(Vector3::new(0.03, -0.02, 0.0), Vector3::zeros()) * truth;
+            let Some(fit) = segloc::localizer::lander_factor::fit_lander(
+                &f.lander_points_rover,
+                &guess,
+                &segloc::localizer::lander_factor::LanderFitConfig::default(),
+            ) else {
+                continue;
+            };
+            let e = segloc::graph::se3::log(&(truth.inverse() * fit.world_from_rover));
+            let mut e3 = e;
+            e3[0] = 0.0;
+            e3[1] = 0.0;
+            e3[5] = 0.0;
+            chi += (e3.transpose() * fit.information * e3)[0];
+            let d = fit.world_from_rover.translation.vector - truth.translation.vector;
+            sum += d.xy().norm_squared();
+            ex += d.x;
+            ey += d.y;
+            eyaw += e[2];
+            n += 1;
+        }
+        let nf = n as f64;
+        println!(
+            "seed {seed}: {n}/{} frames, rms {:.4} m, mean dx {:.4} dy {:.4} yaw {:.4} deg, chi2/frame {:.2}",
+            log.frames.len(),
+            (sum / nf).sqrt(),
+            ex / nf,
+            ey / nf,
+            (eyaw / nf).to_degrees(),
+            chi / nf
+        );
+    }
+}
