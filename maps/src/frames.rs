@@ -42,6 +42,7 @@ use json::{array, describe, json_message, number, numbers, optional, required};
 
 use crate::atomic::{read_text, write_atomic};
 use crate::error::snippet;
+use crate::landmark::{from_upper_triangle, upper_triangle};
 use crate::tum::{unit_quaternion, QUAT_NORM_TOL};
 use crate::{check_covariance, MapError};
 
@@ -167,17 +168,7 @@ pub fn frame_to_json_line(frame: &StreamFrame) -> String {
         }
         if let Some(c) = &d.cov_rover {
             s.push_str(", \"cov_rover\": ");
-            push_array(
-                &mut s,
-                &[
-                    c[(0, 0)],
-                    c[(0, 1)],
-                    c[(0, 2)],
-                    c[(1, 1)],
-                    c[(1, 2)],
-                    c[(2, 2)],
-                ],
-            );
+            push_array(&mut s, &upper_triangle(c));
         }
         s.push('}');
     }
@@ -400,10 +391,10 @@ fn parse_detection(item: &Value, field: &str) -> Result<FrameDetection, String> 
         None => None,
     };
     let cov_rover = match optional(object, "cov_rover") {
-        Some(v) => {
-            let [xx, xy, xz, yy, yz, zz] = numbers::<6>(v, &format!("{field}.cov_rover"))?;
-            Some(Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))
-        }
+        Some(v) => Some(from_upper_triangle(numbers::<6>(
+            v,
+            &format!("{field}.cov_rover"),
+        )?)),
         None => None,
     };
     Ok(FrameDetection {

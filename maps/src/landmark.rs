@@ -100,6 +100,25 @@ pub fn check_covariance(c: &Matrix3<f64>) -> Result<(), String> {
     Ok(())
 }
 
+/// The upper triangle of a symmetric 3 × 3 matrix, `[xx, xy, xz, yy, yz, zz]`: how the file
+/// formats write a covariance.
+pub fn upper_triangle(c: &Matrix3<f64>) -> [f64; 6] {
+    [
+        c[(0, 0)],
+        c[(0, 1)],
+        c[(0, 2)],
+        c[(1, 1)],
+        c[(1, 2)],
+        c[(2, 2)],
+    ]
+}
+
+/// The symmetric 3 × 3 matrix of an upper triangle `[xx, xy, xz, yy, yz, zz]`
+/// ([`upper_triangle`]'s inverse).
+pub fn from_upper_triangle([xx, xy, xz, yy, yz, zz]: [f64; 6]) -> Matrix3<f64> {
+    Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,10 +4,11 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use nalgebra::{Matrix3, Point3};
+use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 use super::{MAP_FORMAT_NAME, MAP_FORMAT_VERSION};
+use crate::landmark::{from_upper_triangle, upper_triangle};
 use crate::{Landmark, ObjectMap};
 
 #[derive(Deserialize)]
@@ -47,11 +48,10 @@ fn one() -> u32 {
 
 impl From<LandmarkV1> for Landmark {
     fn from(l: LandmarkV1) -> Self {
-        let [xx, xy, xz, yy, yz, zz] = l.cov;
         Landmark {
             id: l.id,
             position: Point3::new(l.p[0], l.p[1], l.p[2]),
-            covariance: Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz),
+            covariance: from_upper_triangle(l.cov),
             size_m: l.size_m,
             observations: l.observations,
             sessions: l.sessions,
@@ -61,18 +61,10 @@ impl From<LandmarkV1> for Landmark {
 
 impl From<&Landmark> for LandmarkV1 {
     fn from(l: &Landmark) -> Self {
-        let c = &l.covariance;
         LandmarkV1 {
             id: l.id,
             p: [l.position.x, l.position.y, l.position.z],
-            cov: [
-                c[(0, 0)],
-                c[(0, 1)],
-                c[(0, 2)],
-                c[(1, 1)],
-                c[(1, 2)],
-                c[(2, 2)],
-            ],
+            cov: upper_triangle(&l.covariance),
             size_m: l.size_m,
             observations: l.observations,
             sessions: l.sessions.clone(),
