@@ -36,7 +36,8 @@ pub struct LocalizeArgs {
     /// Write every frame, also those before the first fix (placed by the final solve).
     #[arg(long)]
     all_frames: bool,
-    /// Write the estimates the localizer gave while driving, not the final solve's.
+    /// Write the estimates the localizer gave while driving, not the final solve's (the
+    /// final solve's for frames before the first fix, with `--all-frames`).
     #[arg(long)]
     online: bool,
     /// The localizer's configuration (TOML, as `--print-config` prints it).
@@ -135,10 +136,11 @@ fn trajectory(
     let from = if args.all_frames { 0 } else { first_fix };
     (from..times.len())
         .filter_map(|k| {
-            let pose = if args.online && !args.all_frames {
-                outputs.get(k)?.prior_from_rover?
-            } else {
-                *session.poses.get(k)?
+            // with --online, what the localizer gave while driving, where it gave a pose
+            let online = outputs.get(k).and_then(|o| o.prior_from_rover);
+            let pose = match online.filter(|_| args.online) {
+                Some(pose) => pose,
+                None => *session.poses.get(k)?,
             };
             Some((times[k], pose))
         })

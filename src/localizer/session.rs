@@ -313,10 +313,12 @@ impl Localizer {
         if k < graph.frames {
             return Some(prior_from_odom * graph.pose_or_identity(k));
         }
-        let (base, mut pose) = match graph.frames.checked_sub(1) {
-            Some(last) => (last, graph.pose_or_identity(last)),
-            None => (0, self.log.frames.first()?.odom_from_rover),
+        let Some(base) = graph.frames.checked_sub(1) else {
+            // nothing solved yet (a mapping session without online closures): the
+            // odometry itself, not a chain recomposed from the first frame at every call
+            return Some(prior_from_odom * self.log.frames.get(k)?.odom_from_rover);
         };
+        let mut pose = graph.pose_or_identity(base);
         for f in self.log.frames.get(base + 1..=k)? {
             pose *= graph.bias.correct(&f.step);
         }
