@@ -51,15 +51,17 @@ print(f"Odometry: yaw drift {d['yaw_drift_deg_per_10m']}°/10 m, scale error {10
       f"yaw random walk {d['yaw_walk_rad_per_sqrt_m']} rad/√m, seed {paper['seed']}; default `LocalizerConfig` "
       "unless the options above say otherwise. RMSE (cm) of positions over the frames from the first fix on: "
       "online (`push_frame`, what the rover knew then), smoothed (`finish`), odometry alone (aligned at the first "
-      "frame); *seeing prior*: the online RMSE over those of the frames that see a boulder of the prior map. "
+      "frame), *oracle*: every frame that sees the prior map placed exactly and the others carried from there by "
+      "the odometry (what a perfect relocalizer without drift calibration would leave); *seeing prior*: the "
+      "online RMSE over those of the frames that see a boulder of the prior map. "
       "A wrong fix: an accepted fix over 10 cm or 1° from the truth of its frame.")
 print()
-print("| prior | query | frames | fixes / attempts | first fix (s) | online | smoothed | odometry | seeing prior (frames) | wrong fixes | frame ms median / p99 | attempt ms median |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+print("| prior | query | frames | fixes / attempts | first fix (s) | online | smoothed | odometry | oracle | seeing prior (frames) | wrong fixes | frame ms median / p99 | attempt ms median |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for p in paper["pairs"]:
     r, seen, t = p["rmse"], p["rmse_seeing_prior"], p["time"]
     print(f"| {p['prior']} | {p['query']} | {p['frames']} | {p['accepted']} / {p['attempts']} | "
-          f"{s(p['time_to_first_fix_s'])} | {cm(r['online_m'])} | {cm(r['smoothed_m'])} | {cm(r['odometry_m'])} | "
+          f"{s(p['time_to_first_fix_s'])} | {cm(r['online_m'])} | {cm(r['smoothed_m'])} | {cm(r['odometry_m'])} | {cm(r['oracle_m'])} | "
           f"{cm(seen['online_m'])} ({seen['frames']}) | {len(p['wrong_fixes'])} | "
           f"{t['median_ms']:.3f} / {t['p99_ms']:.3f} | {t['attempt_median_ms']:.1f} |")
 print()

@@ -317,6 +317,8 @@ pub struct FixScore {
     pub t: f64,
     /// Inlier associations.
     pub inliers: usize,
+    /// Yaw standard deviation the relocalizer's information matrix implies, degrees.
+    pub yaw_sigma_deg: Option<f64>,
     /// Translation error, m.
     pub error_m: f64,
     /// Rotation error, degrees.
@@ -338,6 +340,11 @@ pub struct Rmse {
     pub before_adjustment_m: Option<f64>,
     /// The odometry alone, aligned with the truth at the first frame.
     pub odometry_m: Option<f64>,
+    /// A fix oracle: every frame that sees the prior map placed exactly, the others carried
+    /// from the latest such frame (or the first fix) by the odometry alone; what a perfect
+    /// relocalizer without drift calibration would leave where the prior map is out of
+    /// sight.
+    pub oracle_m: Option<f64>,
 }
 
 /// Wall time of the localizer's frames, milliseconds.
@@ -489,6 +496,7 @@ fn rmse_over(
     r: &Replay,
     truth: &[Isometry3<f64>],
     odometry: &[Isometry3<f64>],
+    oracle: &[Isometry3<f64>],
 ) -> Rmse {
     let over = |poses: &[Isometry3<f64>]| {
         rmse_m(
@@ -508,7 +516,31 @@ fn rmse_over(
         smoothed_m: over(&r.session.poses),
         before_adjustment_m: over(&r.session.poses_before_adjustment),
         odometry_m: over(odometry),
+        oracle_m: over(oracle),
     }
+}
+
+/// The fix oracle's poses ([`Rmse::oracle_m`]): from frame `from` on, each frame carried by
+/// the odometry from the latest frame that sees the prior map (or from `from`), placed at
+/// its true pose.
+pub fn oracle_poses(
+    truth: &[Isometry3<f64>],
+    odometry: &[Isometry3<f64>],
+    seeing: &[bool],
+    from: usize,
+) -> Vec<Isometry3<f64>> {
+    let mut anchor = from;
+    (0..truth.len())
+        .map(|k| {
+            if k < from {
+                return truth[k];
+            }
+            if seeing[k] {
+                anchor = k;
+            }
+            truth[anchor] * odometry[anchor].inverse() * odometry[k]
+        })
+        .collect()
 }
 
 /// Replay `drive` against `prior_map` (traverse `prior`'s map, in the world frame) and score
@@ -534,6 +566,7 @@ pub fn run_pair(
         .collect();
     let after: Vec<bool> = (0..truth.len()).map(|k| k >= from).collect();
     let after_seeing: Vec<bool> = after.iter().zip(&seeing).map(|(a, s)| *a && *s).collect();
+    let oracle = oracle_poses(truth, &odometry, &seeing, from);
     let attempts = &r.session.attempts;
     let mut refused = BTreeMap::new();
     for a in attempts.iter().filter(|a| !a.accepted()) {
@@ -553,8 +586,8 @@ pub fn run_pair(
         refused,
         first_fix_frame: first_fix,
         time_to_first_fix_s: first_fix.map(|k| drive.frames[k].t - drive.frames[0].t),
-        rmse: rmse_over(&after, &r, truth, &odometry),
-        rmse_seeing_prior: rmse_over(&after_seeing, &r, truth, &odometry),
+        rmse: rmse_over(&after, &r, truth, &odometry, &oracle),
+        rmse_seeing_prior: rmse_over(&after_seeing, &r, truth, &odometry, &oracle),
         max_fix_error_m: fixes.iter().map(|f| f.error_m).reduce(f64::max),
         wrong_fixes: fixes.iter().filter(|f| f.wrong).cloned().collect(),
         fixes,
@@ -593,6 +626,7 @@ fn score_fixes(session: &SessionResult, truth: &[Isometry3<f64>]) -> Vec<FixScor
             frame: k,
             t: record.t,
             inliers: record.inliers,
+            yaw_sigma_deg: record.yaw_sigma_deg,
             error_m,
             error_deg,
             wrong: error_m > WRONG_FIX_M || error_deg > WRONG_FIX_DEG,
@@ -880,5 +914,23 @@ mod tests {
         assert_eq!(quantile(&v, 0.99), 99.0);
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
         assert_eq!(quantile(&[], 0.5), 0.0);
+    }
+
+    #[test]
+    fn the_oracle_is_exact_where_the_prior_is_seen_and_drifts_between() {
+        let truth: Vec<Isometry3<f64>> = (0..6)
+            .map(|k| Isometry3::translation(k as f64, 0.0, 0.0))
+            .collect();
+        // odometry 10 % long
+        let odometry: Vec<Isometry3<f64>> = (0..6)
+            .map(|k| Isometry3::translation(1.1 * k as f64, 0.0, 0.0))
+            .collect();
+        let seeing = [false, false, true, false, false, true];
+        let oracle = oracle_poses(&truth, &odometry, &seeing, 1);
+        let x: Vec<f64> = oracle.iter().map(|p| p.translation.x).collect();
+        let expected = [0.0, 1.0, 2.0, 3.1, 4.2, 5.0];
+        for (a, b) in x.iter().zip(expected) {
+            assert!((a - b).abs() < 1e-12, "{x:?}");
+        }
     }
 }

@@ -143,6 +143,13 @@ pub struct GateConfig {
     /// The odometry's uncertainty (in σ) added to the tolerance when the first two results
     /// confirm each other (no fix in the graph yet); 3 σ afterwards.
     pub bootstrap_sigmas: f64,
+    /// The graph's prediction confirms a result alone only while its tolerance, widened by
+    /// the odometry since the last fix, stays within this yaw (degrees); beyond, results
+    /// confirm each other pairwise as at the start. See docs/design/fix-gate.md.
+    pub max_prediction_yaw_deg: f64,
+    /// A relocalization whose information implies a yaw σ above this (degrees) is refused:
+    /// its submap cannot tell the yaw to the degree. See docs/design/fix-gate.md.
+    pub max_yaw_sigma_deg: f64,
 }
 
 impl Default for GateConfig {
@@ -152,6 +159,8 @@ impl Default for GateConfig {
             position_m: 0.08,
             yaw_deg: 0.5,
             bootstrap_sigmas: 0.0,
+            max_prediction_yaw_deg: 3.0,
+            max_yaw_sigma_deg: 0.6,
         }
     }
 }
@@ -159,7 +168,12 @@ impl Default for GateConfig {
 impl GateConfig {
     /// Check the values are in range.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        positive(&[("position_m", self.position_m), ("yaw_deg", self.yaw_deg)])?;
+        positive(&[
+            ("position_m", self.position_m),
+            ("yaw_deg", self.yaw_deg),
+            ("max_prediction_yaw_deg", self.max_prediction_yaw_deg),
+            ("max_yaw_sigma_deg", self.max_yaw_sigma_deg),
+        ])?;
         non_negative(&[("bootstrap_sigmas", self.bootstrap_sigmas)])
     }
 }

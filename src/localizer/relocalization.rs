@@ -50,12 +50,14 @@ impl PriorGate {
         }
         let tolerance = Tolerance::of_gate(&config.gate);
         let pose = |k: usize| graph.pose_or_identity(k);
+        let mut informed = false;
         if let (Some(odom_from_prior), Some(last)) = (graph.odom_from_prior(), self.last_fix_frame)
         {
             let predicted = odom_from_prior.inverse() * pose(c.k);
             let (sigma_m, sigma_yaw) = graph.odometry_sigma(last, c.k, &config.odometry);
             let widened = tolerance.widened(sigma_m, sigma_yaw, 3.0);
-            if agrees(&predicted, &c.prior_from_rover, &widened) {
+            informed = widened.yaw_rad <= config.gate.max_prediction_yaw_deg.to_radians();
+            if informed && agrees(&predicted, &c.prior_from_rover, &widened) {
                 self.pending = None;
                 return vec![c];
             }
@@ -63,13 +65,14 @@ impl PriorGate {
         if let Some(p) = self.pending.take() {
             let carried = p.prior_from_rover * pose(p.k).inverse() * pose(c.k);
             let (sigma_m, sigma_yaw) = graph.odometry_sigma(p.k, c.k, &config.odometry);
-            // before the first fix the odometry between the two is still uncalibrated (its
-            // yaw-rate error bends both submaps alike while the rover turns on the spot), so
-            // the first pair must agree more tightly
-            let n_sigma = if self.last_fix_frame.is_none() {
-                config.gate.bootstrap_sigmas
-            } else {
+            // with no fix yet the odometry between the two is still uncalibrated (its
+            // yaw-rate error bends both submaps alike while the rover turns on the spot); with
+            // no informative prediction the pair alone vouches for itself: either way the pair
+            // must agree more tightly than when it overrules the graph
+            let n_sigma = if informed {
                 3.0
+            } else {
+                config.gate.bootstrap_sigmas
             };
             if agrees(
                 &carried,
@@ -163,6 +166,11 @@ pub fn attempt(
         attempts.push(record);
         return None;
     };
+    if let Some(reason) = undetermined_yaw(&record, config) {
+        record.status = AttemptStatus::Refused(reason);
+        attempts.push(record);
+        return None;
+    }
     // anchor: the frame nearest the matched landmarks (least drift relative to them)
     let matched = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
     let k = frame_nearest(&odometry, first..k + 1, &matched);
@@ -185,6 +193,18 @@ pub fn attempt(
         prior_from_rover,
         information,
         attempt: attempts.len() - 1,
+    })
+}
+
+/// Why an accepted relocalization cannot be trusted to the degree in yaw (its yaw σ over
+/// the gate's `max_yaw_sigma_deg`), when the gate is on.
+fn undetermined_yaw(record: &AttemptRecord, config: &LocalizerConfig) -> Option<String> {
+    let sigma_deg = record.yaw_sigma_deg.unwrap_or(f64::INFINITY);
+    (config.gate.enabled && sigma_deg > config.gate.max_yaw_sigma_deg).then(|| {
+        format!(
+            "yaw undetermined: σ {sigma_deg:.2}° over {:.2}°",
+            config.gate.max_yaw_sigma_deg
+        )
     })
 }
 
@@ -287,5 +307,63 @@ mod tests {
             gate.admit(candidate(31, truth(31)), &graph, &config).len(),
             1
         );
+    }
+
+    #[test]
+    fn a_loose_prediction_cannot_confirm_a_fix_alone() {
+        // one fix at frame 10, then 400 frames of driving: the odometry's yaw σ since then
+        // widens the prediction's tolerance past `max_prediction_yaw_deg`
+        let mut log = FrameLog::default();
+        for k in 0..420 {
+            log.push(&StreamFrame::new(k as f64, pose(0.3 * k as f64, 0.0, 0.0)));
+        }
+        let config = LocalizerConfig::default();
+        let mut graph = TrajectoryGraph::new();
+        graph.extend(&log, &config).unwrap();
+        let truth = |k: usize| pose(2.0, 1.0, 0.0) * log.frames[k].odom_from_rover;
+        graph
+            .add_relocalization(
+                10,
+                truth(10),
+                Matrix6::identity() * 1e4,
+                crate::graph::RobustKernel::None,
+            )
+            .unwrap();
+        graph.optimize().unwrap();
+        let mut gate = PriorGate {
+            last_fix_frame: Some(10),
+            ..PriorGate::default()
+        };
+        let (_, sigma_yaw) = graph.odometry_sigma(10, 400, &config.odometry);
+        assert!(
+            config.gate.yaw_deg + 3.0 * sigma_yaw.to_degrees() > config.gate.max_prediction_yaw_deg
+        );
+        // even an exact fix waits for a second one, which must agree tightly
+        assert!(gate
+            .admit(candidate(400, truth(400)), &graph, &config)
+            .is_empty());
+        let off = pose(0.0, 0.0, 0.8) * truth(410);
+        assert!(gate.admit(candidate(410, off), &graph, &config).is_empty());
+        assert!(gate
+            .admit(candidate(415, truth(415)), &graph, &config)
+            .is_empty());
+        assert_eq!(
+            gate.admit(candidate(419, truth(419)), &graph, &config)
+                .len(),
+            2
+        );
+    }
+
+    #[test]
+    fn a_fix_whose_yaw_the_submap_cannot_tell_is_refused() {
+        let config = LocalizerConfig::default();
+        let mut record = AttemptRecord::pending(0.0, 0, 10);
+        record.yaw_sigma_deg = Some(config.gate.max_yaw_sigma_deg * 0.9);
+        assert_eq!(undetermined_yaw(&record, &config), None);
+        record.yaw_sigma_deg = Some(config.gate.max_yaw_sigma_deg * 1.1);
+        let reason = undetermined_yaw(&record, &config).unwrap();
+        assert_eq!(AttemptStatus::Refused(reason).code(), "yaw undetermined");
+        record.yaw_sigma_deg = None;
+        assert!(undetermined_yaw(&record, &config).is_some());
     }
 }
