@@ -13,6 +13,7 @@
 //! - [`StreamFrame`]: one camera frame of a recorded drive (odometry pose, gravity, boulder
 //!   detections in the rover frame), for replaying it through the online localizer; the
 //!   JSON Lines frames file ([`read_frames`], [`write_frames`]).
+//! - [`isometry_from_matrix`]: a rigid transform from a 4 × 4 homogeneous matrix.
 //! - TUM trajectories (`t tx ty tz qx qy qz qw`, as `evo` reads them): [`read_tum`],
 //!   [`write_tum`].
 //!
@@ -29,6 +30,7 @@ pub mod landmark;
 pub mod map_file;
 pub mod object_map;
 pub mod point_list;
+pub mod rigid;
 pub mod traverse;
 pub mod tum;
 
@@ -52,6 +54,7 @@ pub use map_file::{
 };
 pub use object_map::ObjectMap;
 pub use point_list::parse_point_list;
+pub use rigid::{isometry_from_matrix, RIGID_TOLERANCE};
 pub use traverse::{
     parse_lunarloc_traverse, read_lunarloc_traverse, Traverse, TraverseFrame, TRAVERSE_HEADER,
 };

@@ -52,6 +52,7 @@ mod error;
 mod factor_paths;
 mod factors;
 pub mod file;
+pub mod file_solve;
 pub mod g2o;
 mod incremental;
 pub mod information;
