@@ -127,50 +127,59 @@ pub fn screen_triangles(
     height: usize,
     cull_back_faces: bool,
 ) -> Vec<ScreenTriangle> {
-    let transformed: Vec<[f64; 3]> = scene
-        .vertices
-        .par_iter()
-        .map(|v| {
-            let p = Point3::new(v[0], v[1], v[2]);
-            match projection {
-                Projection::Perspective {
-                    camera_from_world, ..
-                } => {
-                    let q = camera_from_world * p;
-                    [q.x, q.y, q.z]
-                }
-                Projection::Orthographic { .. } => projection.project(&p),
-            }
-        })
-        .collect();
     let (w, h) = (width as f64, height as f64);
+    let Projection::Perspective {
+        camera_from_world,
+        fx,
+        fy,
+        cx,
+        cy,
+        near_m,
+    } = *projection
+    else {
+        let transformed: Vec<[f64; 3]> = scene
+            .vertices
+            .par_iter()
+            .map(|v| projection.project(&Point3::new(v[0], v[1], v[2])))
+            .collect();
+        return scene
+            .triangles
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, t)| setup(t.map(|k| transformed[k as usize]), i as u32, w, h))
+            .collect();
+    };
+    let rotation = camera_from_world.rotation.to_rotation_matrix().into_inner();
+    let shift = camera_from_world.translation.vector;
+    let to_camera = |v: &[f64; 3]| {
+        let q = rotation * Vector3::new(v[0], v[1], v[2]) + shift;
+        [q.x, q.y, q.z]
+    };
+    // inward normals of the frustum's side planes (through the camera centre)
+    let plane = |a: f64, b: f64, c: f64| Vector3::new(a, b, c).normalize();
+    let sides = [
+        plane(1.0, 0.0, (cx + 1.0) / fx),
+        plane(-1.0, 0.0, (w - cx) / fx),
+        plane(0.0, 1.0, (cy + 1.0) / fy),
+        plane(0.0, -1.0, (h - cy) / fy),
+    ];
+    let project = |q: [f64; 3]| [cx + fx * q[0] / q[2], cy + fy * q[1] / q[2], 1.0 / q[2]];
     scene
-        .triangles
+        .clusters
         .par_iter()
-        .enumerate()
-        .flat_map_iter(|(i, t)| {
-            let v = t.map(|k| transformed[k as usize]);
+        .filter(|c| {
+            let q = Vector3::from(to_camera(&c.center));
+            q.z + c.radius_m >= near_m && sides.iter().all(|n| n.dot(&q) >= -c.radius_m)
+        })
+        .flat_map_iter(|c| c.triangles.clone())
+        .flat_map_iter(|i| {
+            let v = scene.triangles[i as usize].map(|k| to_camera(&scene.vertices[k as usize]));
             let mut out: [Option<ScreenTriangle>; 2] = [None, None];
-            match projection {
-                Projection::Perspective {
-                    fx,
-                    fy,
-                    cx,
-                    cy,
-                    near_m,
-                    ..
-                } => {
-                    if cull_back_faces && faces_away(&v) {
-                        return out.into_iter().flatten();
-                    }
-                    let project =
-                        |q: [f64; 3]| [cx + fx * q[0] / q[2], cy + fy * q[1] / q[2], 1.0 / q[2]];
-                    let (parts, n) = clip_near(&v, *near_m);
-                    for (slot, clipped) in out.iter_mut().zip(&parts[..n]) {
-                        *slot = setup(clipped.map(project), i as u32, w, h);
-                    }
+            if !(cull_back_faces && faces_away(&v)) {
+                let (parts, n) = clip_near(&v, near_m);
+                for (slot, clipped) in out.iter_mut().zip(&parts[..n]) {
+                    *slot = setup(clipped.map(project), i, w, h);
                 }
-                Projection::Orthographic { .. } => out[0] = setup(v, i as u32, w, h),
             }
             out.into_iter().flatten()
         })

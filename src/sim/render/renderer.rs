@@ -40,6 +40,8 @@ pub struct Renderer {
     scene: Scene,
     shadow: ShadowMap,
     camera: StereoCamera,
+    /// Unit vector toward the sun, world frame.
+    sun: Vector3<f64>,
 }
 
 /// `rover_from_left_camera` of the front pair, optical frame (x right, y down, z forward).
@@ -70,6 +72,7 @@ impl Renderer {
             scene,
             shadow,
             camera,
+            sun: config.sun_direction(),
         })
     }
 
@@ -182,8 +185,7 @@ impl Renderer {
             }
             ObjectKind::Lander => (self.face_normal(triangle), o.albedo),
         };
-        let sun = self.config.sun_direction();
-        let mu0 = normal.dot(&sun);
+        let mu0 = normal.dot(&self.sun);
         let mu = normal.dot(&(eye - p).normalize()).max(1e-3);
         let direct = if mu0 > 0.0 && self.shadow.lit(p, &normal) {
             let l = self.config.lommel_seeliger_weight;

@@ -54,6 +54,20 @@ const FINE_TEXEL_M: f64 = 0.002;
 /// Texel of the site-wide albedo texture, metres.
 const COARSE_TEXEL_M: f64 = 0.02;
 
+/// A run of consecutive triangles inside a bounding sphere, culled as a whole.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cluster {
+    /// The triangles, indices into [`Scene::triangles`].
+    pub triangles: std::ops::Range<u32>,
+    /// Centre of the bounding sphere, world frame.
+    pub center: [f64; 3],
+    /// Radius of the bounding sphere, metres.
+    pub radius_m: f64,
+}
+
+/// Terrain cells per side of a cluster.
+const TERRAIN_BLOCK: usize = 16;
+
 /// The scene: a triangle mesh with an object per triangle, and the textures.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -65,6 +79,8 @@ pub struct Scene {
     pub triangle_object: Vec<u32>,
     /// The objects.
     pub objects: Vec<SceneObject>,
+    /// The triangles in bounding spheres: terrain blocks, each rock, pebble and the lander.
+    pub clusters: Vec<Cluster>,
     terrain_n: usize,
     terrain_spacing_m: f64,
     half_m: f64,
@@ -84,6 +100,7 @@ impl Scene {
             triangles: Vec::new(),
             triangle_object: Vec::new(),
             objects: Vec::new(),
+            clusters: Vec::new(),
             terrain_n: n,
             terrain_spacing_m: spacing,
             half_m,
@@ -147,15 +164,45 @@ impl Scene {
                 self.vertices.push([x, y, heights[iy * n + ix]]);
             }
         }
-        // the ray casts' split: diagonal from (ix, iy + 1) to (ix + 1, iy)
-        for iy in 0..n - 1 {
-            for ix in 0..n - 1 {
-                let v = |dx: usize, dy: usize| ((iy + dy) * n + ix + dx) as u32;
-                self.triangles.push([v(0, 0), v(1, 0), v(0, 1)]);
-                self.triangles.push([v(0, 1), v(1, 0), v(1, 1)]);
-                self.triangle_object.extend([id, id]);
+        // the ray casts' split: diagonal from (ix, iy + 1) to (ix + 1, iy); blocks of cells
+        // are clusters
+        for by in (0..n - 1).step_by(TERRAIN_BLOCK) {
+            for bx in (0..n - 1).step_by(TERRAIN_BLOCK) {
+                let first = self.triangles.len() as u32;
+                let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+                for iy in by..(by + TERRAIN_BLOCK).min(n - 1) {
+                    for ix in bx..(bx + TERRAIN_BLOCK).min(n - 1) {
+                        let v = |dx: usize, dy: usize| ((iy + dy) * n + ix + dx) as u32;
+                        self.triangles.push([v(0, 0), v(1, 0), v(0, 1)]);
+                        self.triangles.push([v(0, 1), v(1, 0), v(1, 1)]);
+                        self.triangle_object.extend([id, id]);
+                        for k in [v(0, 0), v(1, 1), v(1, 0), v(0, 1)] {
+                            let p = self.vertices[k as usize];
+                            for a in 0..3 {
+                                (lo[a], hi[a]) = (lo[a].min(p[a]), hi[a].max(p[a]));
+                            }
+                        }
+                    }
+                }
+                self.push_cluster(first, lo, hi);
             }
         }
+    }
+
+    /// A cluster of the triangles from `first` on, bounded by the box `lo`–`hi`.
+    fn push_cluster(&mut self, first: u32, lo: [f64; 3], hi: [f64; 3]) {
+        let center = [0, 1, 2].map(|a| (lo[a] + hi[a]) / 2.0);
+        let radius_m = [0, 1, 2]
+            .map(|a| (hi[a] - lo[a]) / 2.0)
+            .iter()
+            .map(|d| d * d)
+            .sum::<f64>()
+            .sqrt();
+        self.clusters.push(Cluster {
+            triangles: first..self.triangles.len() as u32,
+            center,
+            radius_m: radius_m + 1e-6,
+        });
     }
 
     fn add_lander(&mut self, moon: &Moon) {
@@ -169,6 +216,7 @@ impl Scene {
         let h = LANDER_HALF_EXTENT_M;
         let (z0, z1) = (moon.lander_base_m(), moon.lander_top_m());
         let base = self.vertices.len() as u32;
+        let first = self.triangles.len() as u32;
         for k in 0..8 {
             let x = if k & 1 == 0 { -h } else { h };
             let y = if k & 2 == 0 { -h } else { h };
@@ -191,6 +239,7 @@ impl Scene {
                 .push([base + q[0], base + q[2], base + q[3]]);
             self.triangle_object.extend([id, id]);
         }
+        self.push_cluster(first, [-h, -h, z0], [h, h, z1]);
     }
 
     fn add_ellipsoid(
@@ -211,6 +260,7 @@ impl Scene {
         });
         let (unit_vertices, unit_triangles) = super::icosphere::icosphere(level);
         let base = self.vertices.len() as u32;
+        let first = self.triangles.len() as u32;
         for v in unit_vertices {
             self.vertices.push([
                 center[0] + radius_m * v[0],
@@ -222,6 +272,10 @@ impl Scene {
             self.triangles.push([base + t[0], base + t[1], base + t[2]]);
             self.triangle_object.push(id);
         }
+        let r = [radius_m, radius_m, radius_m * flatten];
+        let lo = [0, 1, 2].map(|a| center[a] - r[a]);
+        let hi = [0, 1, 2].map(|a| center[a] + r[a]);
+        self.push_cluster(first, lo, hi);
     }
 
     fn make_textures(&mut self, config: &RenderConfig, seed: u64) {
@@ -302,17 +356,19 @@ impl Scene {
     /// Terrain normal at (x, y): the vertex normals interpolated bilinearly.
     pub fn terrain_normal(&self, x: f64, y: f64) -> [f64; 3] {
         let n = self.terrain_n;
-        let max = (n - 1) as f64;
-        let u = ((x + self.half_m) / self.terrain_spacing_m).clamp(0.0, max - 1e-9);
-        let v = ((y + self.half_m) / self.terrain_spacing_m).clamp(0.0, max - 1e-9);
+        let max = (n - 1) as f64 - 1e-9;
+        let u = ((x + self.half_m) / self.terrain_spacing_m).clamp(0.0, max);
+        let v = ((y + self.half_m) / self.terrain_spacing_m).clamp(0.0, max);
+        let (i0, j0) = (u as usize, v as usize);
+        let (tu, tv) = ((u - i0 as f64) as f32, (v - j0 as f64) as f32);
+        let k = j0 * n + i0;
+        let t = &self.terrain_normals;
+        let (a, b, c, d) = (t[k], t[k + 1], t[k + n], t[k + n + 1]);
         let mut out = [0.0; 3];
-        for (k, o) in out.iter_mut().enumerate() {
-            let (i0, j0) = (u as usize, v as usize);
-            let (tu, tv) = (u - i0 as f64, v - j0 as f64);
-            let t = |i: usize, j: usize| self.terrain_normals[j * n + i][k] as f64;
-            let a = t(i0, j0) + tu * (t(i0 + 1, j0) - t(i0, j0));
-            let b = t(i0, j0 + 1) + tu * (t(i0 + 1, j0 + 1) - t(i0, j0 + 1));
-            *o = a + tv * (b - a);
+        for (m, o) in out.iter_mut().enumerate() {
+            let top = a[m] + tu * (b[m] - a[m]);
+            let bottom = c[m] + tu * (d[m] - c[m]);
+            *o = (top + tv * (bottom - top)) as f64;
         }
         let norm = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
         [out[0] / norm, out[1] / norm, out[2] / norm]
