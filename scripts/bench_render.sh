@@ -11,7 +11,7 @@ SEEDS="${1:-11 12 13}"
 SUN="${2:-10}"
 DATA="${SEGLOC_DATA:-../shared/data}"
 BIN="$CARGO_TARGET_DIR/release/segloc"
-nice -n 10 cargo build --release -q
+[ "${SKIP_BUILD:-0}" = 1 ] || nice -n 10 cargo build --release -q
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 for s in $SEEDS; do

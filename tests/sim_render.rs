@@ -11,7 +11,16 @@ fn short_render_writes_the_documented_layout() {
     let out = tmp.path().join("frames");
     let lac = tmp.path().join("drive.lac");
     let run = segloc()
-        .args(["sim", "render", "--seed", "2", "--seconds", "2", "--every", "20"])
+        .args([
+            "sim",
+            "render",
+            "--seed",
+            "2",
+            "--seconds",
+            "2",
+            "--every",
+            "20",
+        ])
         .args(["--half", "-o"])
         .arg(&out)
         .arg("--lac")
@@ -99,6 +108,10 @@ fn refuses_bad_input_and_writes_nothing() {
         .output()
         .unwrap();
     assert_eq!(run.status.code(), Some(2));
-    assert!(stderr_of(&run).contains("read_noise_dn"), "{}", stderr_of(&run));
+    assert!(
+        stderr_of(&run).contains("read_noise_dn"),
+        "{}",
+        stderr_of(&run)
+    );
     assert!(!fresh.exists());
 }

@@ -13,7 +13,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use segloc::mission::mapping_session::map_session;
 use segloc::mission::{drive_sessions, MissionConfig, Silent};
-use segloc::perception::lac::{Imu, ImageKind, LacFrame, LacWriter};
+use segloc::perception::lac::{ImageKind, Imu, LacFrame, LacWriter};
 use segloc::perception::write_gray_png;
 use segloc::sim::ipex::TICK_S;
 use segloc::sim::moon::Moon;
@@ -199,7 +199,10 @@ fn write_frames(
         truth.push((record.time_s, frame.world_from_left));
         rover_truth.push((record.time_s, record.world_from_rover));
         let g = record.gravity_rover;
-        imu.push_str(&format!("{tick},{:.3},{},{},{}\n", record.time_s, g.x, g.y, g.z));
+        imu.push_str(&format!(
+            "{tick},{:.3},{},{},{}\n",
+            record.time_s, g.x, g.y, g.z
+        ));
         frames_json.push(json!({"frame": tick, "time_s": record.time_s, "visible": frame.rocks}));
         if let Some(writer) = lac.as_mut() {
             writer.add_frame(LacFrame {
@@ -225,7 +228,10 @@ fn write_frames(
         .map(|(id, r)| json!({"id": id, "center_world": [r.center.x, r.center.y, r.center.z], "radius_m": r.radius_m}))
         .collect();
     let rocks_json = json!({"rocks": rocks, "frames": frames_json});
-    write_text(&dir.join("rocks.json"), &serde_json::to_string(&rocks_json)?)?;
+    write_text(
+        &dir.join("rocks.json"),
+        &serde_json::to_string(&rocks_json)?,
+    )?;
     write_text(
         &dir.join("calibration.json"),
         &serde_json::to_string_pretty(&calibration(args, renderer, log.ticks.len()))?,
@@ -309,4 +315,3 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
     f.write_all(text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
-

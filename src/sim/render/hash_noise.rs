@@ -57,7 +57,10 @@ mod tests {
         let xs: Vec<f64> = (0..n).map(|k| gaussian(k as u64)).collect();
         let mean = xs.iter().sum::<f64>() / n as f64;
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
-        assert!(mean.abs() < 0.02 && (var - 1.0).abs() < 0.03, "{mean} {var}");
+        assert!(
+            mean.abs() < 0.02 && (var - 1.0).abs() < 0.03,
+            "{mean} {var}"
+        );
         let a = value_noise(3, 0.3, 0.7, 0.1, Some(10));
         let b = value_noise(3, 1.3, 1.7, 0.1, Some(10));
         assert!((a - b).abs() < 1e-9);

@@ -217,11 +217,7 @@ fn clip_near(v: &[[f64; 3]; 3], near: f64) -> ([[[f64; 3]; 3]; 2], usize) {
         }
         if inside[k] != inside[(k + 1) % 3] {
             let t = (near - a[2]) / (b[2] - a[2]);
-            poly.push([
-                a[0] + t * (b[0] - a[0]),
-                a[1] + t * (b[1] - a[1]),
-                near,
-            ]);
+            poly.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), near]);
         }
     }
     let first = [poly[0], poly[1], poly[2]];
@@ -271,7 +267,11 @@ pub fn rasterize(triangles: &[ScreenTriangle], width: usize, height: usize) -> R
         if hi < 0.0 || lo as f64 > hi {
             continue;
         }
-        for bin in bins.iter_mut().take(hi as usize / BAND_ROWS + 1).skip(lo / BAND_ROWS) {
+        for bin in bins
+            .iter_mut()
+            .take(hi as usize / BAND_ROWS + 1)
+            .skip(lo / BAND_ROWS)
+        {
             bin.push(i as u32);
         }
     }

@@ -119,7 +119,13 @@ impl Renderer {
         let image = expose(&radiance, c.width, c.height, &self.config, key);
         if std::env::var_os("SEGLOC_RENDER_PROFILE").is_some() {
             let t4 = start.elapsed().as_secs_f64() * 1e3;
-            eprintln!("tris {} setup {t1:.1} raster {:.1} shade {:.1} expose {:.1}", triangles.len(), t2 - t1, t3 - t2, t4 - t3);
+            eprintln!(
+                "tris {} setup {t1:.1} raster {:.1} shade {:.1} expose {:.1}",
+                triangles.len(),
+                t2 - t1,
+                t3 - t2,
+                t4 - t3
+            );
         }
         RenderedView {
             image,

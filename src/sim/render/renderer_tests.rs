@@ -113,7 +113,10 @@ fn instance_mask_matches_the_projected_silhouette() {
     }
     let iou = both as f64 / either as f64;
     assert!(iou > 0.97, "IoU {iou}");
-    assert_eq!(far_off, 0, "pixels wrong more than 1.5 px from the silhouette");
+    assert_eq!(
+        far_off, 0,
+        "pixels wrong more than 1.5 px from the silhouette"
+    );
     let rock = &frame.rocks[0];
     assert_eq!(rock.pixels, drawn_count);
     assert!(rock.visible_fraction > 0.95, "{}", rock.visible_fraction);
@@ -148,9 +151,12 @@ fn shadows_fall_where_the_shadow_ray_is_blocked() {
             if view.object[idx] != super::scene::TERRAIN_OBJECT {
                 continue;
             }
-            let p_cam = r.camera().back_project(x as f64, y as f64, view.depth_m[idx] as f64);
+            let p_cam = r
+                .camera()
+                .back_project(x as f64, y as f64, view.depth_m[idx] as f64);
             let p = world_from_camera * p_cam;
-            let blocked = |q: Point3<f64>| moon.cast_rock(0, &(q + sun * 1e-3), &sun, 100.0).is_some();
+            let blocked =
+                |q: Point3<f64>| moon.cast_rock(0, &(q + sun * 1e-3), &sun, 100.0).is_some();
             // skip the penumbra of the discretisation: points whose neighbours 2 cm away
             // disagree
             let across = Vector3::new(-sun.y, sun.x, 0.0).normalize() * 0.02;
@@ -166,5 +172,8 @@ fn shadows_fall_where_the_shadow_ray_is_blocked() {
     }
     assert!(shadowed > 300, "{shadowed} shadowed pixels");
     let fraction = agree as f64 / compared as f64;
-    assert!(fraction > 0.995, "agreement {fraction} over {compared} pixels");
+    assert!(
+        fraction > 0.995,
+        "agreement {fraction} over {compared} pixels"
+    );
 }

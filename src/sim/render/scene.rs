@@ -233,10 +233,8 @@ impl Scene {
             [1, 3, 7, 5], // +x
         ];
         for q in quads {
-            self.triangles
-                .push([base + q[0], base + q[1], base + q[2]]);
-            self.triangles
-                .push([base + q[0], base + q[2], base + q[3]]);
+            self.triangles.push([base + q[0], base + q[1], base + q[2]]);
+            self.triangles.push([base + q[0], base + q[2], base + q[3]]);
             self.triangle_object.extend([id, id]);
         }
         self.push_cluster(first, [-h, -h, z0], [h, h, z1]);
@@ -314,10 +312,7 @@ impl Scene {
         self.fine_albedo = (0..m * m)
             .into_par_iter()
             .map(|k| {
-                let (x, y) = (
-                    (k % m) as f64 * FINE_TEXEL_M,
-                    (k / m) as f64 * FINE_TEXEL_M,
-                );
+                let (x, y) = ((k % m) as f64 * FINE_TEXEL_M, (k / m) as f64 * FINE_TEXEL_M);
                 let s: f64 = fine
                     .iter()
                     .enumerate()

@@ -62,11 +62,7 @@ impl Renderer {
             || self.render_view(&world_from_right, 2 * frame + 1),
         );
         let render_ms = start.elapsed().as_secs_f64() * 1e3;
-        let instance = left
-            .object
-            .iter()
-            .map(|&o| self.instance_of(o))
-            .collect();
+        let instance = left.object.iter().map(|&o| self.instance_of(o)).collect();
         let rocks = self.visible_rocks(&left, &world_from_left);
         StereoFrame {
             left: left.image,
@@ -104,9 +100,7 @@ impl Renderer {
                 continue;
             }
             let (x, y) = ((idx % w) as f64, (idx / w) as f64);
-            let p = self
-                .camera()
-                .back_project(x, y, view.depth_m[idx] as f64);
+            let p = self.camera().back_project(x, y, view.depth_m[idx] as f64);
             let entry = seen.entry(o).or_insert((0, nalgebra::Vector3::zeros()));
             entry.0 += 1;
             entry.1 += (world_from_camera * p).coords;
