@@ -160,6 +160,8 @@ fn detect_pair(
             .collect();
         super::print_json(&json!({
             "boulders": boulders,
+            "valid_disparity_fraction": valid_disparity_fraction(&result.disparity, &left_image),
+            "gray_histogram": gray_histogram(&left_image),
             "time_ms": result.timing.total_ms,
             "timing": result.timing,
             "segmenter": front_end.segmenter_name(),
@@ -276,6 +278,32 @@ fn detect_lac(args: &DetectArgs, front_end: &mut FrontEnd, lac: &Path) -> Result
         );
     }
     Ok(0)
+}
+
+/// Fraction of the lit pixels (grey level above 10, so not the black sky) whose disparity
+/// is valid.
+fn valid_disparity_fraction(map: &DisparityMap, left: &GrayImage) -> f64 {
+    let (mut lit, mut valid) = (0usize, 0usize);
+    for y in 0..map.height {
+        for x in 0..map.width {
+            let (u, v) = (x * map.scale, y * map.scale);
+            if u < left.width && v < left.height && left.get(u, v) > 10 {
+                lit += 1;
+                valid += usize::from(map.data[y * map.width + x].is_finite());
+            }
+        }
+    }
+    valid as f64 / lit.max(1) as f64
+}
+
+/// Histogram of the grey levels in 32 bins of 8 levels, as fractions of the pixels.
+fn gray_histogram(image: &GrayImage) -> Vec<f64> {
+    let mut bins = vec![0.0; 32];
+    for &g in &image.data {
+        bins[g as usize / 8] += 1.0;
+    }
+    let n = image.data.len().max(1) as f64;
+    bins.iter().map(|b| b / n).collect()
 }
 
 fn write_disparity_png(map: &DisparityMap, path: &Path) -> Result<()> {

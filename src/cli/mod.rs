@@ -15,6 +15,7 @@ mod relocalize;
 mod sim;
 mod sim_export;
 mod sim_field;
+mod sim_render;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};

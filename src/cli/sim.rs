@@ -32,6 +32,9 @@ pub enum SimCommand {
     /// A session of the mission as a recorded drive: the frames file, its true trajectory
     /// (TUM) and session 1's map, for `segloc localize`.
     Export(super::sim_export::ExportArgs),
+    /// A drive of the mission's planner rendered as stereo images with ground truth
+    /// (depth, rock instances, visible rocks), for perception and visual odometry.
+    Render(super::sim_render::RenderArgs),
 }
 
 /// Run a `sim` subcommand; exit code 0, or 2 on bad input.
@@ -39,6 +42,7 @@ pub fn run(command: &SimCommand, relocalize: &RelocalizeConfig) -> Result<i32> {
     match command {
         SimCommand::Field(args) => super::sim_field::run(args, relocalize),
         SimCommand::Export(args) => super::sim_export::run(args),
+        SimCommand::Render(args) => super::sim_render::run(args),
         SimCommand::Session {
             seed,
             seconds,

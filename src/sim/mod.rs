@@ -18,6 +18,7 @@
 pub mod boulder_field;
 pub mod crater;
 pub mod moon;
+pub mod render;
 pub mod rover;
 pub mod sensors;
 pub mod session;

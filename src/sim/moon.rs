@@ -294,6 +294,13 @@ impl Moon {
         self.half_m
     }
 
+    /// The height-field samples: samples per side `n`, spacing (metres) and the heights,
+    /// `heights[iy * n + ix]` at (−half + ix·spacing, −half + iy·spacing). The ray casts
+    /// split each cell (ix, iy) along the diagonal from (ix, iy + 1) to (ix + 1, iy).
+    pub fn height_samples(&self) -> (usize, f64, &[f64]) {
+        (self.n, self.config.resolution_m, &self.heights)
+    }
+
     /// The rocks.
     pub fn rocks(&self) -> &[Rock] {
         &self.rocks

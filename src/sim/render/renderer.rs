@@ -1,0 +1,210 @@
+//! The renderer: the IPEX front stereo pair's view of the synthetic moon as 8-bit images,
+//! with per-pixel depth and object, in three stages per view:
+//!
+//! 1. rasterize ([`super::raster`]): the scene's triangles into a z-buffer of the scene
+//!    triangle per pixel;
+//! 2. shade: the pixel's surface point from its depth, its normal (terrain: interpolated
+//!    vertex normals; rocks: the sphere's), the sun's shadow map ([`super::shadow`]), the
+//!    lunar-Lambert reflectance and the albedo textures;
+//! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits.
+
+use super::config::{RenderConfig, RenderError};
+use super::raster::{rasterize, screen_triangles, Projection, Raster, ScreenTriangle};
+use super::scene::{ObjectKind, Scene};
+use super::sensor::expose;
+use super::shadow::ShadowMap;
+use crate::perception::{GrayImage, StereoCamera};
+use crate::sim::moon::Moon;
+use crate::sim::sensors::cameras;
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
+
+/// One rendered view.
+#[derive(Clone, Debug)]
+pub struct RenderedView {
+    /// The camera image.
+    pub image: GrayImage,
+    /// Depth along the optical axis per pixel, metres (0: sky).
+    pub depth_m: Vec<f32>,
+    /// Scene object per pixel (index into the scene's objects; `u32::MAX`: sky).
+    pub object: Vec<u32>,
+    /// The projected triangles (for silhouettes).
+    pub(crate) triangles: Vec<ScreenTriangle>,
+    /// Milliseconds spent rasterizing and shading.
+    pub time_ms: f64,
+}
+
+/// The renderer of one moon under one sun.
+pub struct Renderer {
+    config: RenderConfig,
+    scene: Scene,
+    shadow: ShadowMap,
+    camera: StereoCamera,
+    /// Unit vector toward the sun, world frame.
+    sun: Vector3<f64>,
+}
+
+/// `rover_from_left_camera` of the front pair, optical frame (x right, y down, z forward).
+pub fn rover_from_front_left_optical() -> Isometry3<f64> {
+    let [front, _] = cameras();
+    front.rover_from_camera * sim_camera_from_optical()
+}
+
+/// The sim's camera frame (x forward, y left, z up) from the optical frame.
+fn sim_camera_from_optical() -> Isometry3<f64> {
+    let m = Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0);
+    Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m)),
+    )
+}
+
+impl Renderer {
+    /// A renderer of `moon` (its textures and pebbles drawn from `seed`, the moon's seed).
+    pub fn new(moon: &Moon, config: &RenderConfig, seed: u64) -> Result<Renderer, RenderError> {
+        config.validate()?;
+        let scene = Scene::build(moon, config, seed);
+        let shadow = ShadowMap::build(&scene, config.sun_direction(), config.shadow_texel_m);
+        let (w, h) = (config.width(), config.height());
+        let camera = StereoCamera::ipex().scaled(config.resolution_scale, w, h);
+        Ok(Renderer {
+            config: config.clone(),
+            scene,
+            shadow,
+            camera,
+            sun: config.sun_direction(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &RenderConfig {
+        &self.config
+    }
+
+    /// The camera model of the images (scaled with the resolution).
+    pub fn camera(&self) -> &StereoCamera {
+        &self.camera
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The shadow map.
+    pub fn shadow_map(&self) -> &ShadowMap {
+        &self.shadow
+    }
+
+    /// Render the view of a camera at `world_from_camera` (optical frame); `noise_key`
+    /// draws the image noise (give each image its own).
+    pub fn render_view(&self, world_from_camera: &Isometry3<f64>, noise_key: u64) -> RenderedView {
+        let start = std::time::Instant::now();
+        let c = &self.camera;
+        let projection = Projection::Perspective {
+            camera_from_world: world_from_camera.inverse(),
+            fx: c.fx,
+            fy: c.fy,
+            cx: c.cx,
+            cy: c.cy,
+            near_m: self.config.near_m,
+        };
+        let triangles = screen_triangles(&self.scene, &projection, c.width, c.height, true);
+        let t1 = start.elapsed().as_secs_f64() * 1e3;
+        let raster = rasterize(&triangles, c.width, c.height);
+        let t2 = start.elapsed().as_secs_f64() * 1e3;
+        let (radiance, depth_m, object) = self.shade(&raster, world_from_camera);
+        let t3 = start.elapsed().as_secs_f64() * 1e3;
+        let key = noise_key ^ self.config.noise_seed.wrapping_mul(0x9E37_79B9);
+        let image = expose(&radiance, c.width, c.height, &self.config, key);
+        if std::env::var_os("SEGLOC_RENDER_PROFILE").is_some() {
+            let t4 = start.elapsed().as_secs_f64() * 1e3;
+            eprintln!(
+                "tris {} setup {t1:.1} raster {:.1} shade {:.1} expose {:.1}",
+                triangles.len(),
+                t2 - t1,
+                t3 - t2,
+                t4 - t3
+            );
+        }
+        RenderedView {
+            image,
+            depth_m,
+            object,
+            triangles,
+            time_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// Per pixel: radiance (relative), depth and object.
+    fn shade(
+        &self,
+        raster: &Raster,
+        world_from_camera: &Isometry3<f64>,
+    ) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
+        let (w, h) = (raster.width, raster.height);
+        let mut radiance = vec![0f32; w * h];
+        let mut depth = vec![0f32; w * h];
+        let mut object = vec![u32::MAX; w * h];
+        let eye = Point3::from(world_from_camera.translation.vector);
+        radiance
+            .par_chunks_mut(w)
+            .zip(depth.par_chunks_mut(w))
+            .zip(object.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, ((rad, dep), obj))| {
+                for x in 0..w {
+                    let idx = y * w + x;
+                    let tri = raster.triangle[idx];
+                    if tri == u32::MAX {
+                        continue;
+                    }
+                    let z = 1.0 / raster.key[idx] as f64;
+                    let p_cam = self.camera.back_project(x as f64, y as f64, z);
+                    let p = world_from_camera * p_cam;
+                    let o = self.scene.triangle_object[tri as usize];
+                    dep[x] = z as f32;
+                    obj[x] = o;
+                    rad[x] = self.radiance(&p, &eye, o, tri) as f32;
+                }
+            });
+        (radiance, depth, object)
+    }
+
+    /// Radiance (relative to a unit-albedo, unit-reflectance surface) leaving `p` toward
+    /// `eye`.
+    fn radiance(&self, p: &Point3<f64>, eye: &Point3<f64>, object: u32, triangle: u32) -> f64 {
+        let o = &self.scene.objects[object as usize];
+        let (normal, albedo) = match o.kind {
+            ObjectKind::Terrain => {
+                let n = self.scene.terrain_normal(p.x, p.y);
+                (Vector3::from(n), self.scene.terrain_albedo(p.x, p.y))
+            }
+            ObjectKind::Rock(_) | ObjectKind::Pebble => {
+                let d = Vector3::new(
+                    p.x - o.center[0],
+                    p.y - o.center[1],
+                    (p.z - o.center[2]) / (o.flatten * o.flatten),
+                );
+                let grain = self.scene.fine_detail(p.x + 0.37 * p.z, p.y - 0.61 * p.z);
+                (d.normalize(), o.albedo * grain)
+            }
+            ObjectKind::Lander => (self.face_normal(triangle), o.albedo),
+        };
+        let mu0 = normal.dot(&self.sun);
+        let mu = normal.dot(&(eye - p).normalize()).max(1e-3);
+        let direct = if mu0 > 0.0 && self.shadow.lit(p, &normal) {
+            let l = self.config.lommel_seeliger_weight;
+            2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
+        } else {
+            0.0
+        };
+        albedo * (direct + self.config.ambient)
+    }
+
+    fn face_normal(&self, triangle: u32) -> Vector3<f64> {
+        let t = self.scene.triangles[triangle as usize];
+        let v = t.map(|k| Vector3::from(self.scene.vertices[k as usize]));
+        (v[1] - v[0]).cross(&(v[2] - v[0])).normalize()
+    }
+}

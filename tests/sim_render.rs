@@ -1,0 +1,117 @@
+//! `segloc sim render`: a short drive rendered at half resolution, its layout, the `.lac`
+//! that `segloc detect --lac` reads, and the refusals of bad input.
+
+mod common;
+
+use common::{assert_success, segloc, stderr_of};
+
+#[test]
+fn short_render_writes_the_documented_layout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("frames");
+    let lac = tmp.path().join("drive.lac");
+    let run = segloc()
+        .args([
+            "sim",
+            "render",
+            "--seed",
+            "2",
+            "--seconds",
+            "2",
+            "--every",
+            "20",
+        ])
+        .args(["--half", "-o"])
+        .arg(&out)
+        .arg("--lac")
+        .arg(&lac)
+        .output()
+        .unwrap();
+    assert_success(&run);
+    for name in [
+        "000000_0.png",
+        "000000_1.png",
+        "000000_ids.png",
+        "000000_depth.png",
+        "000040_0.png",
+        "000040_1.png",
+        "calibration.json",
+        "truth.tum",
+        "rover_truth.tum",
+        "imu.csv",
+        "rocks.json",
+    ] {
+        assert!(out.join(name).is_file(), "{name} missing");
+    }
+    let calibration: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("calibration.json")).unwrap())
+            .unwrap();
+    assert_eq!(calibration["width"], 640);
+    assert_eq!(calibration["baseline_m"], 0.162);
+    let truth = std::fs::read_to_string(out.join("truth.tum")).unwrap();
+    let poses = truth.lines().filter(|l| !l.starts_with('#')).count();
+    assert_eq!(poses, 3);
+    let imu = std::fs::read_to_string(out.join("imu.csv")).unwrap();
+    assert_eq!(imu.lines().count(), 4);
+    let rocks: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("rocks.json")).unwrap()).unwrap();
+    assert_eq!(rocks["frames"].as_array().unwrap().len(), 3);
+    assert!(!rocks["rocks"].as_array().unwrap().is_empty());
+    // the recording plays back through the perception front end
+    let csv = tmp.path().join("detections.csv");
+    let detect = segloc()
+        .args(["detect", "--lac"])
+        .arg(&lac)
+        .arg("-o")
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert_success(&detect);
+    assert!(csv.is_file());
+}
+
+#[test]
+fn refuses_bad_input_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let busy = tmp.path().join("busy");
+    std::fs::create_dir(&busy).unwrap();
+    std::fs::write(busy.join("keep.txt"), "x").unwrap();
+    let run = segloc()
+        .args(["sim", "render", "--seconds", "1", "--half", "-o"])
+        .arg(&busy)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(stderr_of(&run).contains("not empty"), "{}", stderr_of(&run));
+    assert!(busy.join("keep.txt").is_file());
+    let fresh = tmp.path().join("fresh");
+    let run = segloc()
+        .args(["sim", "render", "--seconds", "1", "--half"])
+        .args(["--sun-elevation", "-5", "-o"])
+        .arg(&fresh)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(
+        stderr_of(&run).contains("sun_elevation_deg"),
+        "{}",
+        stderr_of(&run)
+    );
+    assert!(!fresh.exists());
+    let config = tmp.path().join("render.toml");
+    std::fs::write(&config, "read_noise_dn = -1.0\n").unwrap();
+    let run = segloc()
+        .args(["sim", "render", "--seconds", "1", "--render-config"])
+        .arg(&config)
+        .arg("-o")
+        .arg(&fresh)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(
+        stderr_of(&run).contains("read_noise_dn"),
+        "{}",
+        stderr_of(&run)
+    );
+    assert!(!fresh.exists());
+}
