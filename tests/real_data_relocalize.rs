@@ -18,6 +18,7 @@ fn run(dof: Dof, trials: usize) -> segloc::eval::lunarloc::EvalReport {
         seed: 1,
         dof,
         negatives: false,
+        tilt_deg: 0.0,
     };
     evaluate(&data, &options, &config, |_, _| {}).expect("evaluation runs")
 }
@@ -120,6 +121,7 @@ fn mirrored_traverses_are_never_accepted() {
         seed: 3,
         dof: Dof::Four,
         negatives: true,
+        tilt_deg: 0.0,
     };
     let config = RelocalizeConfig::default();
     let report = evaluate(&data, &options, &config, |_, _| {}).expect("evaluation runs");

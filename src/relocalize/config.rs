@@ -11,8 +11,10 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RelocalizeConfig {
-    /// Motion model: `"4"` (yaw + translation) or `"6"` (full rigid motion). Unset: 4 when
-    /// both maps are gravity-aligned, else 6.
+    /// Motion model: `"4"` (yaw + translation), `"6"` (full rigid motion) or `"auto"`
+    /// (gravity-aligned maps: 4-DOF association, then the tilt-aware alignment, which
+    /// estimates a residual roll and pitch when the inliers determine it; see
+    /// `refine.tilt`). Unset: auto when both maps are gravity-aligned, else 6.
     pub dof: Option<Dof>,
     /// Detections → landmarks (used when an input is a detection file or a traverse).
     pub landmarks: FusionConfig,
