@@ -44,6 +44,10 @@ pub struct TiltConfig {
     /// A determined tilt closer to level than this many of its standard deviations
     /// (Mahalanobis) is taken as level: the answer is yaw-only.
     pub level_within_sigmas: f64,
+    /// Largest plausible tilt (degrees) between two maps that claim to be gravity-aligned:
+    /// a larger estimate (say, a mirror image fitted by a steep rotation) is not a tilt the
+    /// IMUs could have made, and the answer stays yaw-only.
+    pub max_tilt_deg: f64,
     /// Most Gauss–Newton iterations.
     pub iterations: usize,
 }
@@ -54,6 +58,7 @@ impl Default for TiltConfig {
             gravity_sigma_deg: 1.0,
             max_tilt_sigma_deg: 0.5,
             level_within_sigmas: 0.5,
+            max_tilt_deg: 2.0,
             iterations: 8,
         }
     }
@@ -71,6 +76,7 @@ impl TiltConfig {
         };
         positive("gravity_sigma_deg", self.gravity_sigma_deg)?;
         positive("max_tilt_sigma_deg", self.max_tilt_sigma_deg)?;
+        positive("max_tilt_deg", self.max_tilt_deg)?;
         if !(self.level_within_sigmas.is_finite() && self.level_within_sigmas >= 0.0) {
             return Err(format!(
                 "tilt.level_within_sigmas must be a non-negative number, got {}",
@@ -96,7 +102,8 @@ pub struct TiltAlignment {
     pub tilted: Isometry3<f64>,
     /// The yaw-only closed form.
     pub yaw_only: Isometry3<f64>,
-    /// Whether the pairs determined the tilt (the conditioning test passed).
+    /// Whether the pairs determined the tilt (the conditioning test passed) at a plausible
+    /// value (within `max_tilt_deg`).
     pub tilt_determined: bool,
     /// Whether the answer includes the tilt: determined, and not indistinguishable from
     /// level.
@@ -147,7 +154,8 @@ pub fn align_tilt(pairs: &[WeightedPair], config: &TiltConfig) -> Option<TiltAli
     let tilt = tilt_of(&transform);
     let schur = tilt_information(pairs, &transform);
     let sigma = sigma_of(&schur);
-    let determined = sigma <= config.max_tilt_sigma_deg.to_radians();
+    let plausible = tilt[0].hypot(tilt[1]) <= config.max_tilt_deg.to_radians();
+    let determined = plausible && sigma <= config.max_tilt_sigma_deg.to_radians();
     let theta = nalgebra::Vector2::new(tilt[0], tilt[1]);
     let sigmas_from_level = theta.dot(&(schur * theta)).max(0.0).sqrt();
     let applied = determined && sigmas_from_level >= config.level_within_sigmas;
@@ -346,6 +354,15 @@ mod tests {
         let est = align_tilt(&pairs, &TiltConfig::default()).unwrap();
         assert!(est.tilt_determined && !est.tilt_applied, "{est:?}");
         assert_eq!(est.prior_from_query, align_yaw(&pairs).unwrap());
+    }
+
+    #[test]
+    fn an_implausible_tilt_is_not_applied() {
+        let truth = tilted(0.08, 0.0, 0.3, Vector3::new(2.0, 1.0, 0.0));
+        let pairs = weighted(pairs_for(&scatter(25, 12), &truth), 1e4);
+        let est = align_tilt(&pairs, &TiltConfig::default()).unwrap();
+        assert!(!est.tilt_determined && !est.tilt_applied, "{est:?}");
+        assert_eq!(est.prior_from_query, est.yaw_only);
     }
 
     #[test]
