@@ -35,9 +35,10 @@ if [[ "${1:-}" != "--no-mission" ]]; then
   grep -c '^gravity_bias_rad = 0.005236' "$out/mission_bias.toml" | grep -q '^2$' \
     || { echo "bench_tilt: expected the bias in both sessions' sensors" >&2; exit 1; }
   printf 'dof = "4"\n' > "$out/dof4.toml"
+  printf 'dof = "auto"\n' > "$out/auto.toml"
   for s in $(seq 1 10); do
     echo "[bench_tilt] mission seed $s with 0.3° bias" >&2
-    "$bin" mission --seed "$s" --json --mission-config "$out/mission_bias.toml" > "$out/mission_auto_$s.json"
+    "$bin" --config "$out/auto.toml" mission --seed "$s" --json --mission-config "$out/mission_bias.toml" > "$out/mission_auto_$s.json"
     "$bin" --config "$out/dof4.toml" mission --seed "$s" --json --mission-config "$out/mission_bias.toml" > "$out/mission_4_$s.json"
   done
 fi

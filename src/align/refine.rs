@@ -84,7 +84,11 @@ pub fn refine(
     let mut transform = *initial;
     let mut tilt: Option<TiltAlignment> = None;
     let mut pairs: Vec<(u32, u32, f64)> = Vec::new();
-    let step_model = if dof == Dof::Auto { Step::Tilted } else { Step::Plain(dof) };
+    let step_model = if dof == Dof::Auto {
+        Step::Tilted
+    } else {
+        Step::Plain(dof)
+    };
     for _ in 0..config.rounds.max(1) {
         pairs = mutual_nearest(prior, &prior_index, query, &transform, config.gate_m)
             .into_iter()
@@ -101,7 +105,13 @@ pub fn refine(
         // The inliers do not determine the tilt, or find it level: the answer is yaw-only,
         // re-weighted by its own residuals.
         let ends = (prior, query, pairs.as_slice());
-        transform = reweight(ends, last.yaw_only, Step::Plain(Dof::Four), config, &mut None);
+        transform = reweight(
+            ends,
+            last.yaw_only,
+            Step::Plain(Dof::Four),
+            config,
+            &mut None,
+        );
     }
     let mut refined = Refined {
         prior_from_query: transform,

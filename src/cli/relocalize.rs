@@ -88,7 +88,7 @@ fn answer_dof(
     config
         .dof
         .unwrap_or(if prior.gravity_aligned && query.gravity_aligned {
-            Dof::Auto
+            config.gravity_aligned_dof
         } else {
             Dof::Six
         })

@@ -248,7 +248,10 @@ pub fn evaluate(
     if !(options.tilt_deg.is_finite() && (0.0..=10.0).contains(&options.tilt_deg)) {
         return Err(MapError::InvalidData {
             what: "evaluation",
-            message: format!("tilt must be within 0..=10 degrees, got {}", options.tilt_deg),
+            message: format!(
+                "tilt must be within 0..=10 degrees, got {}",
+                options.tilt_deg
+            ),
         });
     }
     if options.negatives && !options.dof.needs_gravity() {

@@ -191,8 +191,9 @@ impl Relocalizer {
         })
     }
 
-    /// The motion model: the configured one, else `auto` (4-DOF association, tilt-aware
-    /// alignment) when both maps are gravity-aligned, else 6-DOF.
+    /// The motion model: the configured one, else `gravity_aligned_dof` (by default `auto`:
+    /// 4-DOF association, tilt-aware alignment) when both maps are gravity-aligned, else
+    /// 6-DOF.
     fn motion_model(&self, query: &PreparedMap) -> Result<Dof, RelocalizeError> {
         match self.config.dof {
             Some(dof) if dof.needs_gravity() && !self.prior.gravity_aligned => {
@@ -208,7 +209,9 @@ impl Relocalizer {
                 })
             }
             Some(dof) => Ok(dof),
-            None if self.prior.gravity_aligned && query.gravity_aligned => Ok(Dof::Auto),
+            None if self.prior.gravity_aligned && query.gravity_aligned => {
+                Ok(self.config.gravity_aligned_dof)
+            }
             None => Ok(Dof::Six),
         }
     }
