@@ -140,10 +140,13 @@ enum Step {
     Tilted,
 }
 
+/// Prior points, query points and the pairs `(prior index, query index, base weight)`.
+type PairSet<'a> = (&'a [Point3<f64>], &'a [Point3<f64>], &'a [(u32, u32, f64)]);
+
 /// Iteratively re-weighted least squares over fixed pairs `(prior index, query index, base
 /// weight)` from `transform`; records the last tilt-aware solve in `tilt`.
 fn reweight(
-    (prior, query, pairs): (&[Point3<f64>], &[Point3<f64>], &[(u32, u32, f64)]),
+    (prior, query, pairs): PairSet<'_>,
     mut transform: Isometry3<f64>,
     step: Step,
     config: &RefineConfig,
