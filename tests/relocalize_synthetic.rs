@@ -100,3 +100,48 @@ fn too_few_landmarks_is_an_input_error() {
     .unwrap_err();
     assert!(err.to_string().contains("at least 3"), "{err}");
 }
+
+/// A query map tilted by a residual roll and pitch it does not declare (an IMU's error):
+/// the default (`auto`) estimates the tilt and lands on the truth; `--dof 4` cannot.
+#[test]
+fn a_tilted_query_is_aligned_with_its_tilt_by_default() {
+    use nalgebra::UnitQuaternion;
+    use segloc::align::Dof;
+    for (seed, roll_deg, pitch_deg) in [(1, 0.6, -0.4), (2, -0.5, 0.5), (3, 0.3, 0.7)] {
+        let (prior, query, truth) = two_sessions(&FieldConfig::default(), seed);
+        let tilt = Isometry3::from_parts(
+            nalgebra::Translation3::identity(),
+            UnitQuaternion::from_euler_angles(
+                f64::to_radians(roll_deg),
+                f64::to_radians(pitch_deg),
+                0.0,
+            ),
+        );
+        // query' = tilt · query, so prior_from_query' = truth · tilt⁻¹
+        let tilted = query.transformed(&tilt, "query");
+        assert!(tilted.gravity_aligned);
+        let truth = truth * tilt.inverse();
+        let answer = relocalize(&prior, &tilted, &RelocalizeConfig::default()).unwrap();
+        let estimate = answer
+            .prior_from_query
+            .unwrap_or_else(|| panic!("seed {seed} refused: {:?}", answer.refusal));
+        let (t, r) = transform_error(&estimate, &truth);
+        let best = &answer.diagnostics.hypotheses[0];
+        let diag = best.tilt.expect("auto reports its tilt decision");
+        assert!(diag.applied, "seed {seed}: {diag:?}");
+        assert!(t < 0.02 && r < 0.1, "seed {seed}: error {t} m, {r} deg");
+        // the information says the tilt is known, far better than gravity alone (σ 1°)
+        let covariance = answer.information.try_inverse().expect("invertible");
+        assert!(covariance[(0, 0)].sqrt().to_degrees() < 0.3, "{covariance}");
+
+        let four = RelocalizeConfig {
+            dof: Some(Dof::Four),
+            ..RelocalizeConfig::default()
+        };
+        let answer4 = relocalize(&prior, &tilted, &four).unwrap();
+        if let Some(estimate4) = answer4.prior_from_query {
+            let (_, r4) = transform_error(&estimate4, &truth);
+            assert!(r4 > 3.0 * r, "seed {seed}: 4-DOF {r4} deg vs auto {r} deg");
+        }
+    }
+}

@@ -6,6 +6,9 @@
 //! - [`mod@refine`]: iteratively re-weighted least squares with a Cauchy kernel over
 //!   re-associated nearest neighbours, which turns a clique's rough answer into a
 //!   centimetre one.
+//! - [`tilt`]: for gravity-aligned maps that are not quite aligned, the yaw-only answer
+//!   corrected by the residual roll and pitch when the pairs determine them (a gravity
+//!   prior otherwise): [`Dof::Auto`].
 //! - [`information`]: the 6 × 6 information matrix of the estimate for the pose graph.
 //!
 //! All solvers take weighted pairs `(p_prior, p_query, weight)` and return the isometry
@@ -14,14 +17,16 @@
 pub mod arun;
 pub mod information;
 pub mod refine;
+pub mod tilt;
 pub mod yaw_only;
 
 use nalgebra::{Isometry3, Point3};
 use serde::{Deserialize, Serialize};
 
 pub use arun::align_rigid;
-pub use information::information_matrix;
+pub use information::{information_matrix, tilt_aware_information};
 pub use refine::{refine, RefineConfig, Refined};
+pub use tilt::{align_tilt, TiltAlignment, TiltConfig};
 pub use yaw_only::align_yaw;
 
 /// Which motion model the alignment solves for.
@@ -33,14 +38,34 @@ pub enum Dof {
     /// A full rigid motion: rotation about any axis plus translation.
     #[serde(rename = "6")]
     Six,
+    /// Gravity-aligned maps whose alignment may be off by a small roll and pitch: 4-DOF
+    /// association, then the tilt-aware alignment ([`tilt`]), which estimates the residual
+    /// tilt when the pairs determine it.
+    #[serde(rename = "auto")]
+    Auto,
 }
 
 impl Dof {
-    /// The number of degrees of freedom (4 or 6).
+    /// The degrees of freedom of the association's invariant (4 or 6; `Auto` associates
+    /// with the 4-DOF one).
     pub fn count(self) -> u32 {
         match self {
-            Dof::Four => 4,
+            Dof::Four | Dof::Auto => 4,
             Dof::Six => 6,
+        }
+    }
+
+    /// Whether the model needs gravity-aligned maps.
+    pub fn needs_gravity(self) -> bool {
+        self != Dof::Six
+    }
+
+    /// The name used on the command line and in configurations: `4`, `6` or `auto`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Dof::Four => "4",
+            Dof::Six => "6",
+            Dof::Auto => "auto",
         }
     }
 }
@@ -58,10 +83,17 @@ pub struct WeightedPair {
 
 /// Solve `prior_from_query` for the given motion model, or `None` when the pairs are
 /// degenerate (fewer than 2 for yaw-only or 3 for a full rigid motion, or zero weight).
+/// `Auto` runs with the default [`TiltConfig`]; see [`align_with`].
 pub fn align(pairs: &[WeightedPair], dof: Dof) -> Option<Isometry3<f64>> {
+    align_with(pairs, dof, &TiltConfig::default())
+}
+
+/// [`align`] with the tilt-aware alignment's parameters (used by `Dof::Auto` only).
+pub fn align_with(pairs: &[WeightedPair], dof: Dof, tilt: &TiltConfig) -> Option<Isometry3<f64>> {
     match dof {
         Dof::Four => align_yaw(pairs),
         Dof::Six => align_rigid(pairs),
+        Dof::Auto => align_tilt(pairs, tilt).map(|a| a.prior_from_query),
     }
 }
 

@@ -7,7 +7,14 @@
 //! residual (iteratively re-weighted least squares). A Cauchy kernel lets a few landmarks
 //! whose centroids differ by several centimetres between sessions (seen from other sides)
 //! fade out instead of dragging the answer.
+//!
+//! With [`Dof::Auto`] the re-association and re-weighting follow the tilt-aware alignment's
+//! tilted estimate ([`super::tilt`]: a tilted query's far landmarks would otherwise fade
+//! out as outliers, and with them what determines the tilt). At the end, if the inliers
+//! do not determine the tilt, the answer is re-weighted once more yaw-only. Either way the
+//! inliers and residuals the verification gates on are those of the answer.
 
+use super::tilt::{align_tilt, TiltAlignment, TiltConfig};
 use super::{align, Dof, WeightedPair};
 use crate::spatial::GridIndex;
 use nalgebra::{Isometry3, Point3};
@@ -28,6 +35,8 @@ pub struct RefineConfig {
     pub iterations: usize,
     /// A pair is counted as an inlier when its residual is below this (m).
     pub inlier_threshold_m: f64,
+    /// The tilt-aware alignment (motion model `auto` only).
+    pub tilt: TiltConfig,
 }
 
 impl Default for RefineConfig {
@@ -38,6 +47,7 @@ impl Default for RefineConfig {
             rounds: 3,
             iterations: 15,
             inlier_threshold_m: 0.05,
+            tilt: TiltConfig::default(),
         }
     }
 }
@@ -54,6 +64,9 @@ pub struct Refined {
     pub residuals_m: Vec<f64>,
     /// Final weight of each inlier pair (base weight × Cauchy weight).
     pub weights: Vec<f64>,
+    /// `Dof::Auto` only: the last tilt-aware solve (whether the tilt was determined and
+    /// applied, and how well the pairs fix it).
+    pub tilt: Option<TiltAlignment>,
 }
 
 /// Refine `initial` over all landmarks. `prior_weights` / `query_weights` are per-landmark
@@ -69,7 +82,13 @@ pub fn refine(
 ) -> Refined {
     let prior_index = GridIndex::from_points(prior, config.gate_m);
     let mut transform = *initial;
+    let mut tilt: Option<TiltAlignment> = None;
     let mut pairs: Vec<(u32, u32, f64)> = Vec::new();
+    let step_model = if dof == Dof::Auto {
+        Step::Tilted
+    } else {
+        Step::Plain(dof)
+    };
     for _ in 0..config.rounds.max(1) {
         pairs = mutual_nearest(prior, &prior_index, query, &transform, config.gate_m)
             .into_iter()
@@ -79,31 +98,27 @@ pub fn refine(
                 (i, j, base)
             })
             .collect();
-        for _ in 0..config.iterations.max(1) {
-            let weighted: Vec<WeightedPair> = pairs
-                .iter()
-                .map(|&(i, j, base)| {
-                    let p_prior = prior[i as usize];
-                    let p_query = query[j as usize];
-                    let r = (p_prior - transform * p_query).norm() / config.cauchy_scale_m;
-                    WeightedPair {
-                        p_prior,
-                        p_query,
-                        weight: base / (1.0 + r * r),
-                    }
-                })
-                .collect();
-            match align(&weighted, dof) {
-                Some(next) => transform = next,
-                None => break,
-            }
-        }
+        let ends = (prior, query, pairs.as_slice());
+        transform = reweight(ends, transform, step_model, config, &mut tilt);
+    }
+    if let Some(last) = tilt.filter(|t| !t.tilt_applied) {
+        // The inliers do not determine the tilt, or find it level: the answer is yaw-only,
+        // re-weighted by its own residuals.
+        let ends = (prior, query, pairs.as_slice());
+        transform = reweight(
+            ends,
+            last.yaw_only,
+            Step::Plain(Dof::Four),
+            config,
+            &mut None,
+        );
     }
     let mut refined = Refined {
         prior_from_query: transform,
         inliers: Vec::new(),
         residuals_m: Vec::new(),
         weights: Vec::new(),
+        tilt,
     };
     for (i, j, base) in pairs {
         let r = (prior[i as usize] - transform * query[j as usize]).norm();
@@ -115,6 +130,55 @@ pub fn refine(
         }
     }
     refined
+}
+
+/// One re-weighted solve's model: a plain one, or the tilt-aware alignment's tilted
+/// estimate (whose decision is kept).
+#[derive(Clone, Copy)]
+enum Step {
+    Plain(Dof),
+    Tilted,
+}
+
+/// Prior points, query points and the pairs `(prior index, query index, base weight)`.
+type PairSet<'a> = (&'a [Point3<f64>], &'a [Point3<f64>], &'a [(u32, u32, f64)]);
+
+/// Iteratively re-weighted least squares over fixed pairs `(prior index, query index, base
+/// weight)` from `transform`; records the last tilt-aware solve in `tilt`.
+fn reweight(
+    (prior, query, pairs): PairSet<'_>,
+    mut transform: Isometry3<f64>,
+    step: Step,
+    config: &RefineConfig,
+    tilt: &mut Option<TiltAlignment>,
+) -> Isometry3<f64> {
+    for _ in 0..config.iterations.max(1) {
+        let weighted: Vec<WeightedPair> = pairs
+            .iter()
+            .map(|&(i, j, base)| {
+                let p_prior = prior[i as usize];
+                let p_query = query[j as usize];
+                let r = (p_prior - transform * p_query).norm() / config.cauchy_scale_m;
+                WeightedPair {
+                    p_prior,
+                    p_query,
+                    weight: base / (1.0 + r * r),
+                }
+            })
+            .collect();
+        let next = match step {
+            Step::Plain(dof) => align(&weighted, dof),
+            Step::Tilted => align_tilt(&weighted, &config.tilt).map(|a| {
+                *tilt = Some(a);
+                a.tilted
+            }),
+        };
+        match next {
+            Some(next) => transform = next,
+            None => break,
+        }
+    }
+    transform
 }
 
 /// Mutual nearest neighbours between prior points and moved query points within `gate_m`.

@@ -41,9 +41,14 @@ pub enum EvalCommand {
         /// Seed of the transforms.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Motion model.
-        #[arg(long, default_value = "4", value_parser = ["4", "6"])]
+        /// Motion model (see `segloc relocalize --dof`).
+        #[arg(long, default_value = "auto", value_parser = ["4", "6", "auto"])]
         dof: String,
+        /// Tilt every query by a random roll and pitch, each within ± this many degrees,
+        /// which the query map does not declare (it still claims to be gravity-aligned), as
+        /// an IMU's error would: gravity-aligned models only.
+        #[arg(long, default_value_t = 0.0)]
+        tilt_deg: f64,
         /// Print one JSON object.
         #[arg(long)]
         json: bool,
@@ -139,12 +144,19 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             trials,
             seed,
             dof,
+            tilt_deg,
             json,
         } => {
             if *trials == 0 {
                 bail!("--trials must be at least 1");
             }
-            let dof = parse_dof(Some(dof)).unwrap_or(Dof::Four);
+            let dof = parse_dof(Some(dof)).unwrap_or(Dof::Auto);
+            if !(tilt_deg.is_finite() && (0.0..=10.0).contains(tilt_deg)) {
+                bail!("--tilt-deg must be within 0..=10, got {tilt_deg}");
+            }
+            if *tilt_deg > 0.0 && !dof.needs_gravity() {
+                bail!("--tilt-deg is for the gravity-aligned models (--dof 4 or auto)");
+            }
             let mut config = config.clone();
             config.dof = Some(dof);
             let mut chosen = if pairs == "all" {
@@ -161,6 +173,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
                 seed: *seed,
                 dof,
                 negatives: *negatives,
+                tilt_deg: *tilt_deg,
             };
             let bar = indicatif::ProgressBar::new(options.pairs.len() as u64);
             bar.set_style(
@@ -356,6 +369,15 @@ fn print_table(report: &EvalReport) {
         t.false_accepts,
         t.successes_with_8_common,
         t.trials_with_8_common
+    );
+    println!(
+        "motion model {}, query tilt within ±{}°: accepted within 2 cm {}/{} ({:.1}%), accepted over 10 cm {}",
+        report.motion_model,
+        report.tilt_deg,
+        t.accepted_within_2cm,
+        t.trials,
+        100.0 * t.accepted_within_2cm as f64 / t.trials.max(1) as f64,
+        t.accepted_over_10cm
     );
     println!(
         "translation error cm: mean {:.3} median {:.3} max {:.3}; rotation error deg: mean {:.4} max {:.4}; time ms: mean {:.1} max {:.1}",

@@ -104,6 +104,11 @@ pub fn load_config(path: Option<&Path>) -> Result<RelocalizeConfig> {
         .landmarks
         .validate()
         .map_err(|m| anyhow::anyhow!("config file {}: [landmarks] {m}", path.display()))?;
+    config
+        .refine
+        .tilt
+        .validate()
+        .map_err(|m| anyhow::anyhow!("config file {}: [refine] {m}", path.display()))?;
     Ok(config)
 }
 

@@ -1,4 +1,4 @@
-//! `segloc relocalize --prior A --query B [--dof 4|6] [--json]`.
+//! `segloc relocalize --prior A --query B [--dof 4|6|auto] [--json]`.
 
 use super::print_json;
 use anyhow::{Context, Result};
@@ -19,9 +19,11 @@ pub struct RelocalizeArgs {
     /// The query session, same kinds of file.
     #[arg(long)]
     pub query: PathBuf,
-    /// Motion model: 4 (yaw + translation, gravity-aligned maps) or 6 (full rigid motion).
-    /// Default: 4 when both maps are gravity-aligned, else 6.
-    #[arg(long, value_parser = ["4", "6"])]
+    /// Motion model: 4 (yaw + translation, gravity-aligned maps), 6 (full rigid motion) or
+    /// auto (gravity-aligned maps whose tilt may be off by a few tenths of a degree: 4-DOF
+    /// association, then an alignment that also estimates the residual roll and pitch when
+    /// the inliers determine them). Default: auto when both maps are gravity-aligned, else 6.
+    #[arg(long, value_parser = ["4", "6", "auto"])]
     pub dof: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
@@ -37,6 +39,7 @@ pub fn parse_dof(dof: Option<&str>) -> Option<Dof> {
     match dof {
         Some("4") => Some(Dof::Four),
         Some("6") => Some(Dof::Six),
+        Some("auto") => Some(Dof::Auto),
         _ => None,
     }
 }
@@ -85,7 +88,7 @@ fn answer_dof(
     config
         .dof
         .unwrap_or(if prior.gravity_aligned && query.gravity_aligned {
-            Dof::Four
+            config.gravity_aligned_dof
         } else {
             Dof::Six
         })
@@ -106,6 +109,7 @@ pub fn report(
         "associations": d.associations,
         "graph_edges": d.graph_edges,
         "dof": d.dof,
+        "tilt_aware": d.tilt_aware,
         "time_ms": time_ms,
         "timings_ms": d.timings,
         "hypotheses": d.hypotheses,
@@ -119,6 +123,9 @@ pub fn report(
                 .collect::<Vec<_>>())
             .collect::<Vec<_>>());
         out["inlier_pairs"] = json!(answer.inliers);
+        if let Some(tilt) = d.hypotheses.first().and_then(|h| h.tilt) {
+            out["tilt"] = json!(tilt);
+        }
     }
     if let Some(reason) = &answer.refusal {
         out["reason"] = json!(reason.to_string());
@@ -138,8 +145,13 @@ fn finite_or_null(v: f64) -> serde_json::Value {
 fn print_summary(answer: &Relocalization, time_ms: f64) {
     let d = &answer.diagnostics;
     println!(
-        "landmarks: prior {}, query {}; {} associations, {} consistent pairs, {}-DOF",
-        d.prior_landmarks, d.query_landmarks, d.associations, d.graph_edges, d.dof
+        "landmarks: prior {}, query {}; {} associations, {} consistent pairs, {}-DOF{}",
+        d.prior_landmarks,
+        d.query_landmarks,
+        d.associations,
+        d.graph_edges,
+        d.dof,
+        if d.tilt_aware { ", tilt-aware" } else { "" }
     );
     match (&answer.prior_from_query, &answer.refusal) {
         (Some(t), _) => {
@@ -153,6 +165,19 @@ fn print_summary(answer: &Relocalization, time_ms: f64) {
                 t.translation.y,
                 t.translation.z
             );
+            if let Some(tilt) = d.hypotheses.first().and_then(|h| h.tilt) {
+                println!(
+                    "tilt: ({:.3}°, {:.3}°) about x, y, σ {:.3}°: {}",
+                    tilt.tilt_deg[0],
+                    tilt.tilt_deg[1],
+                    tilt.sigma_deg,
+                    match (tilt.determined, tilt.applied) {
+                        (true, true) => "estimated and applied",
+                        (true, false) => "estimated, indistinguishable from level",
+                        _ => "not determined by the inliers, kept level",
+                    }
+                );
+            }
             for row in matrix_rows(t) {
                 println!(
                     "  [{:>10.6} {:>10.6} {:>10.6} {:>10.4}]",

@@ -2,7 +2,9 @@
 //!
 //! For each pair (prior, query) and trial, the query traverse — rover positions and every
 //! detection — is moved by a random rigid transform (any yaw, ±20 m in x and y, ±1 m in z;
-//! for 6-DOF also roll and pitch up to ±10°), fused into landmarks in its moved frame,
+//! for 6-DOF also roll and pitch up to ±10°; for the gravity-aligned models, with
+//! [`EvalOptions::tilt_deg`], a residual roll and pitch within ±`tilt_deg` that the maps do
+//! not declare, as from an IMU's error), fused into landmarks in its moved frame,
 //! and relocalized against the prior traverse's map. The traverses share one world frame,
 //! so the truth is the applied transform, and the truly common landmarks are the mutual
 //! nearest neighbours within 10 cm between the two maps fused in the world frame.
@@ -56,6 +58,9 @@ pub struct EvalOptions {
     pub dof: Dof,
     /// Mirror every query in x: no answer is right, every acceptance a false accept.
     pub negatives: bool,
+    /// Gravity-aligned models: the query is also tilted by a random roll and pitch, each
+    /// uniform within ± this (degrees), while still claiming to be gravity-aligned. 0: none.
+    pub tilt_deg: f64,
 }
 
 /// One trial's outcome.
@@ -73,6 +78,8 @@ pub struct Trial {
     pub inliers: usize,
     /// Refusal reason, when refused.
     pub refusal: Option<String>,
+    /// Motion model `auto`: the tilt-aware alignment's decision for the best hypothesis.
+    pub tilt: Option<crate::relocalize::TiltDiagnostics>,
     /// Landmarks of the moved query map.
     pub query_landmarks: usize,
     /// Candidate associations.
@@ -113,6 +120,10 @@ pub struct Totals {
     pub false_accepts: usize,
     /// successes / trials.
     pub success_rate: f64,
+    /// Accepted with a translation error of at most 2 cm.
+    pub accepted_within_2cm: usize,
+    /// Accepted with a translation error over 10 cm.
+    pub accepted_over_10cm: usize,
     /// Trials on pairs with at least 8 truly common landmarks, and their successes.
     pub trials_with_8_common: usize,
     /// Successes among those.
@@ -161,8 +172,12 @@ impl Stats {
 /// The whole evaluation.
 #[derive(Clone, Debug, Serialize)]
 pub struct EvalReport {
-    /// Motion model (4 or 6).
+    /// Degrees of freedom of the association (4 or 6).
     pub dof: u32,
+    /// Motion model: `4`, `6` or `auto`.
+    pub motion_model: &'static str,
+    /// Largest residual roll and pitch of the queries (degrees; gravity-aligned models).
+    pub tilt_deg: f64,
     /// Trials per pair.
     pub trials_per_pair: usize,
     /// Seed.
@@ -193,20 +208,32 @@ pub fn all_pairs() -> Vec<(usize, usize)> {
 /// A random rigid transform for a trial: any yaw, ±20 m in x and y, ±1 m in z, and for
 /// 6-DOF roll and pitch within ±10°.
 pub fn random_transform(rng: &mut ChaCha8Rng, dof: Dof) -> Isometry3<f64> {
+    random_tilted_transform(rng, dof, 0.0)
+}
+
+/// [`random_transform`], and for the gravity-aligned models a roll and pitch each within
+/// ±`tilt_deg` (drawn after the rest, so that the yaw and translation of every trial are
+/// those of the untilted evaluation with the same seed).
+pub fn random_tilted_transform(rng: &mut ChaCha8Rng, dof: Dof, tilt_deg: f64) -> Isometry3<f64> {
     let yaw = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
-    let (roll, pitch) = match dof {
-        Dof::Four => (0.0, 0.0),
+    let (mut roll, mut pitch) = match dof {
+        Dof::Four | Dof::Auto => (0.0, 0.0),
         Dof::Six => (
             rng.random_range(-10f64..10.0).to_radians(),
             rng.random_range(-10f64..10.0).to_radians(),
         ),
     };
+    let translation = Translation3::new(
+        rng.random_range(-20.0..20.0),
+        rng.random_range(-20.0..20.0),
+        rng.random_range(-1.0..1.0),
+    );
+    if dof.needs_gravity() && tilt_deg > 0.0 {
+        roll = rng.random_range(-tilt_deg..tilt_deg).to_radians();
+        pitch = rng.random_range(-tilt_deg..tilt_deg).to_radians();
+    }
     Isometry3::from_parts(
-        Translation3::new(
-            rng.random_range(-20.0..20.0),
-            rng.random_range(-20.0..20.0),
-            rng.random_range(-1.0..1.0),
-        ),
+        translation,
         UnitQuaternion::from_euler_angles(roll, pitch, yaw),
     )
 }
@@ -218,7 +245,16 @@ pub fn evaluate(
     config: &RelocalizeConfig,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<EvalReport, MapError> {
-    if options.negatives && options.dof != Dof::Four {
+    if !(options.tilt_deg.is_finite() && (0.0..=10.0).contains(&options.tilt_deg)) {
+        return Err(MapError::InvalidData {
+            what: "evaluation",
+            message: format!(
+                "tilt must be within 0..=10 degrees, got {}",
+                options.tilt_deg
+            ),
+        });
+    }
+    if options.negatives && !options.dof.needs_gravity() {
         return Err(MapError::InvalidData {
             what: "evaluation",
             message: "mirrored negatives need the 4-DOF model: in 6-DOF a mirrored, nearly \
@@ -242,7 +278,7 @@ pub fn evaluate(
     for (k, &(a, b)) in options.pairs.iter().enumerate() {
         progress(k, options.pairs.len());
         let mut prior_map = world_maps[&a].clone();
-        prior_map.gravity_aligned = options.dof == Dof::Four;
+        prior_map.gravity_aligned = options.dof.needs_gravity();
         let relocalizer = Relocalizer::new(prior_map.clone(), config.clone()).map_err(|e| {
             MapError::InvalidData {
                 what: "map",
@@ -252,7 +288,7 @@ pub fn evaluate(
         let mut rng = ChaCha8Rng::seed_from_u64(options.seed ^ ((a as u64) << 32 | b as u64));
         let trials = (0..options.trials)
             .map(|_| {
-                let truth = random_transform(&mut rng, options.dof);
+                let truth = random_tilted_transform(&mut rng, options.dof, options.tilt_deg);
                 run_trial(&relocalizer, &traverses[&b], &truth, options, config)
             })
             .collect::<Vec<_>>();
@@ -274,6 +310,8 @@ pub fn evaluate(
     progress(options.pairs.len(), options.pairs.len());
     Ok(EvalReport {
         dof: options.dof.count(),
+        motion_model: options.dof.label(),
+        tilt_deg: options.tilt_deg,
         trials_per_pair: options.trials,
         seed: options.seed,
         negatives: options.negatives,
@@ -297,7 +335,7 @@ fn run_trial(
         world = super::mirrored_x(&world);
     }
     let mut detections = world.transformed(&truth.inverse(), "query");
-    detections.gravity_aligned = options.dof == Dof::Four;
+    detections.gravity_aligned = options.dof.needs_gravity();
     let query_map = fuse_detections(&detections, &config.landmarks);
     let started = std::time::Instant::now();
     let outcome = relocalizer.relocalize(&query_map);
@@ -318,6 +356,7 @@ fn run_trial(
                     .first()
                     .map_or(0, |h| h.inlier_count),
                 refusal: answer.refusal.map(|r| r.to_string()),
+                tilt: answer.diagnostics.hypotheses.first().and_then(|h| h.tilt),
                 query_landmarks: answer.diagnostics.query_landmarks,
                 associations: answer.diagnostics.associations,
                 time_ms,
@@ -330,6 +369,7 @@ fn run_trial(
             rotation_error_deg: None,
             inliers: 0,
             refusal: Some(e.to_string()),
+            tilt: None,
             query_landmarks: query_map.len(),
             associations: 0,
             time_ms,
@@ -354,6 +394,14 @@ fn totals(reports: &[PairReport]) -> Totals {
         trials: all.len(),
         successes,
         false_accepts: all.iter().filter(|t| t.accepted && !t.correct).count(),
+        accepted_within_2cm: all
+            .iter()
+            .filter(|t| t.accepted && t.translation_error_m.is_some_and(|e| e <= 0.02))
+            .count(),
+        accepted_over_10cm: all
+            .iter()
+            .filter(|t| t.accepted && t.translation_error_m.is_some_and(|e| e > 0.10))
+            .count(),
         success_rate: if all.is_empty() {
             0.0
         } else {

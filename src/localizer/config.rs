@@ -380,7 +380,11 @@ impl Default for LocalizerConfig {
                 ..FusionConfig::default()
             },
             view_bias: ViewBiasConfig::default(),
-            relocalize: RelocalizeConfig::default(),
+            // 4-DOF: see `RelocalizeConfig::gravity_aligned_dof`.
+            relocalize: RelocalizeConfig {
+                gravity_aligned_dof: crate::align::Dof::Four,
+                ..RelocalizeConfig::default()
+            },
             boulder_adjustment: BoulderAdjustmentConfig::default(),
         }
     }

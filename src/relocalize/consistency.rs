@@ -11,7 +11,7 @@ pub fn invariant(dof: Dof, config: &ConsistencyConfig) -> Invariant {
             epsilon: config.epsilon_m,
             sigma: config.sigma_m,
         },
-        Dof::Four => Invariant::GravityAligned {
+        Dof::Four | Dof::Auto => Invariant::GravityAligned {
             epsilon: config.epsilon_m,
             sigma: config.sigma_m,
             epsilon_z: config.epsilon_z_m,

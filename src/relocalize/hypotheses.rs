@@ -9,7 +9,7 @@
 use super::config::RelocalizeConfig;
 use super::prepared::PreparedMap;
 use super::result::Hypothesis;
-use crate::align::{align, refine, Dof, WeightedPair};
+use crate::align::{align_with, refine, Dof, WeightedPair};
 use segloc_clipper::{
     core_numbers, densest_clique, max_clique, Association, ConsistencyGraph, DensestCliqueConfig,
     MaxCliqueLimits,
@@ -127,7 +127,7 @@ fn examine(
     for &k in clique {
         keep[k] = false;
     }
-    let initial = align(&pairs, dof)?;
+    let initial = align_with(&pairs, dof, &config.refine.tilt)?;
     let refined = refine(
         &prior.points,
         &prior.weights,
@@ -168,6 +168,7 @@ fn examine(
         inliers: refined.inliers,
         rmse_m,
         spread_m: minor_axis_spread(&inlier_prior),
+        tilt: refined.tilt.map(Into::into),
     })
 }
 

@@ -29,9 +29,9 @@ pub use config::{
     AssociationConfig, CliqueConfig, ConsistencyConfig, RelocalizeConfig, VerificationConfig,
 };
 pub use prepared::{PreparedMap, MIN_LANDMARKS};
-pub use result::{Diagnostics, Hypothesis, Refusal, Relocalization, Timings};
+pub use result::{Diagnostics, Hypothesis, Refusal, Relocalization, TiltDiagnostics, Timings};
 
-use crate::align::{information_matrix, Dof};
+use crate::align::{information_matrix, tilt_aware_information, Dof};
 use nalgebra::Matrix6;
 use segloc_clipper::{ClipperError, ConsistencyGraph};
 use segloc_maps::{MapError, ObjectMap};
@@ -58,11 +58,13 @@ pub enum RelocalizeError {
         /// The minimum.
         required: usize,
     },
-    /// 4-DOF was asked for but a map is not gravity-aligned.
-    #[error("--dof 4 needs gravity-aligned maps, but the {role} map is not (use --dof 6)")]
+    /// 4-DOF (or auto) was asked for but a map is not gravity-aligned.
+    #[error("--dof {dof} needs gravity-aligned maps, but the {role} map is not (use --dof 6)")]
     NotGravityAligned {
         /// "prior" or "query".
         role: &'static str,
+        /// The motion model asked for (`4` or `auto`).
+        dof: &'static str,
     },
     /// The association solver rejected its input.
     #[error("association failed: {0}")]
@@ -156,7 +158,15 @@ impl Relocalizer {
                     .iter()
                     .map(|&(i, j)| (prior.ids[i as usize], query.ids[j as usize]))
                     .collect();
-                let info = information_matrix(&pairs, &best.prior_from_query);
+                let info = match best.tilt {
+                    Some(tilt) if dof == Dof::Auto => tilt_aware_information(
+                        &pairs,
+                        &best.prior_from_query,
+                        tilt.determined,
+                        config.refine.tilt.gravity_sigma_deg.to_radians(),
+                    ),
+                    _ => information_matrix(&pairs, &best.prior_from_query),
+                };
                 (Some(best.prior_from_query), info, ids)
             }
             _ => (None, Matrix6::zeros(), Vec::new()),
@@ -174,23 +184,34 @@ impl Relocalizer {
                 associations: associations.len(),
                 graph_edges: graph.num_edges(),
                 dof: dof.count(),
+                tilt_aware: dof == Dof::Auto,
                 hypotheses,
                 timings,
             },
         })
     }
 
-    /// The motion model: the configured one, else 4-DOF when both maps are gravity-aligned.
+    /// The motion model: the configured one, else `gravity_aligned_dof` (by default `auto`:
+    /// 4-DOF association, tilt-aware alignment) when both maps are gravity-aligned, else
+    /// 6-DOF.
     fn motion_model(&self, query: &PreparedMap) -> Result<Dof, RelocalizeError> {
         match self.config.dof {
-            Some(Dof::Four) if !self.prior.gravity_aligned => {
-                Err(RelocalizeError::NotGravityAligned { role: "prior" })
+            Some(dof) if dof.needs_gravity() && !self.prior.gravity_aligned => {
+                Err(RelocalizeError::NotGravityAligned {
+                    role: "prior",
+                    dof: dof.label(),
+                })
             }
-            Some(Dof::Four) if !query.gravity_aligned => {
-                Err(RelocalizeError::NotGravityAligned { role: "query" })
+            Some(dof) if dof.needs_gravity() && !query.gravity_aligned => {
+                Err(RelocalizeError::NotGravityAligned {
+                    role: "query",
+                    dof: dof.label(),
+                })
             }
             Some(dof) => Ok(dof),
-            None if self.prior.gravity_aligned && query.gravity_aligned => Ok(Dof::Four),
+            None if self.prior.gravity_aligned && query.gravity_aligned => {
+                Ok(self.config.gravity_aligned_dof)
+            }
             None => Ok(Dof::Six),
         }
     }

@@ -94,6 +94,35 @@ pub struct Hypothesis {
     pub rmse_m: f64,
     /// Standard deviation (m) of the inliers along their minor horizontal axis.
     pub spread_m: f64,
+    /// Motion model `auto` only: the tilt-aware alignment's last decision.
+    pub tilt: Option<TiltDiagnostics>,
+}
+
+/// What the tilt-aware alignment (motion model `auto`) decided for a hypothesis.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TiltDiagnostics {
+    /// Whether the inliers determined the residual tilt (else the answer is yaw-only, the
+    /// tilt known from gravity alone).
+    pub determined: bool,
+    /// Whether the answer includes the tilt (determined and not indistinguishable from
+    /// level).
+    pub applied: bool,
+    /// The estimated tilt about the prior frame's x and y axes (degrees), applied or not.
+    pub tilt_deg: [f64; 2],
+    /// Worst-direction standard deviation of the tilt from the inliers alone (degrees;
+    /// `null` when they do not fix it at all).
+    pub sigma_deg: f64,
+}
+
+impl From<crate::align::TiltAlignment> for TiltDiagnostics {
+    fn from(a: crate::align::TiltAlignment) -> Self {
+        Self {
+            determined: a.tilt_determined,
+            applied: a.tilt_applied,
+            tilt_deg: a.tilt_rad.map(f64::to_degrees),
+            sigma_deg: a.tilt_sigma_rad.to_degrees(),
+        }
+    }
 }
 
 /// Timings of the stages, milliseconds.
@@ -122,8 +151,10 @@ pub struct Diagnostics {
     pub associations: usize,
     /// Edges of the consistency graph.
     pub graph_edges: usize,
-    /// Motion model used (4 or 6).
+    /// Degrees of freedom of the association (4 or 6; 4 for `auto`).
     pub dof: u32,
+    /// Whether the alignment was tilt-aware (motion model `auto`).
+    pub tilt_aware: bool,
     /// Hypotheses examined, best first.
     pub hypotheses: Vec<Hypothesis>,
     /// Stage timings.

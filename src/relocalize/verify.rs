@@ -85,6 +85,7 @@ mod tests {
             inlier_count: inliers,
             rmse_m: rmse,
             spread_m: spread,
+            tilt: None,
         }
     }
 

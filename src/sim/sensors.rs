@@ -64,8 +64,13 @@ pub struct SensorConfig {
     /// ([`observe_far`]), metres: the lander is large, and its bearing stays precise far
     /// away even where stereo depth is not.
     pub far_lander_max_range_m: f64,
-    /// Error (1 σ per axis) of the IMU's gravity direction, radians.
+    /// Error (1 σ per axis) of the IMU's gravity direction, radians: white noise, drawn
+    /// anew every tick.
     pub gravity_sigma_rad: f64,
+    /// Constant bias of the IMU's gravity direction for the whole session, radians: a tilt
+    /// of this size in the rover frame, about a horizontal axis of random direction drawn
+    /// from the session's seed (its own stream: 0 changes nothing else).
+    pub gravity_bias_rad: f64,
     /// Spacing of the points sampled on the lander's sides, metres.
     pub lander_point_spacing_m: f64,
 }
@@ -88,6 +93,7 @@ impl Default for SensorConfig {
             far_ground_max_range_m: 10.0,
             far_lander_max_range_m: 15.0,
             gravity_sigma_rad: 0.001,
+            gravity_bias_rad: 0.0,
             lander_point_spacing_m: 0.3,
         }
     }

@@ -50,6 +50,22 @@ use std::time::Instant;
 /// Mixed into a session's seed for the far measurements' stream ("far grnd").
 const FAR_STREAM: u64 = 0x6661_7220_6772_6e64;
 
+/// Mixed into a session's seed for the direction of the IMU's gravity bias ("g bias").
+const GRAVITY_BIAS_STREAM: u64 = 0x0067_2062_6961_7300;
+
+/// The IMU's constant gravity bias for a session: a rotation by `bias_rad` about a
+/// horizontal rover axis whose direction is drawn from the session's seed.
+pub fn gravity_bias(bias_rad: f64, seed: u64) -> UnitQuaternion<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ GRAVITY_BIAS_STREAM);
+    let direction: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let axis = nalgebra::Unit::new_normalize(nalgebra::Vector3::new(
+        direction.cos(),
+        direction.sin(),
+        0.0,
+    ));
+    UnitQuaternion::from_axis_angle(&axis, bias_rad)
+}
+
 pub use crate::sim::session_log::{
     FrameRecord, Obstruction, SessionLog, SessionSummary, TickRecord,
 };
@@ -65,6 +81,8 @@ pub struct SessionSim<'a> {
     rng: ChaCha8Rng,
     /// The far measurements' own stream ([`observe_far`]).
     far_rng: ChaCha8Rng,
+    /// The IMU's constant gravity bias ([`gravity_bias`]), applied to every reading.
+    gravity_bias: UnitQuaternion<f64>,
     navigator: Navigator,
     obstacles: ObstacleMemory,
     seen: SeenGrid,
@@ -106,12 +124,14 @@ impl<'a> SessionSim<'a> {
         let plan = waypoints(&config.waypoints, Vector2::new(guess[0], guess[1]));
         let navigator = Navigator::new(&config.navigator, plan);
         let world_from_rover = state.pose(moon);
-        let gravity_rover = gravity_in_rover(
-            &world_from_rover,
-            LUNAR_GRAVITY_MPS2,
-            config.sensors.gravity_sigma_rad,
-            &mut rng,
-        );
+        let bias = gravity_bias(config.sensors.gravity_bias_rad, seed);
+        let gravity_rover = bias
+            * gravity_in_rover(
+                &world_from_rover,
+                LUNAR_GRAVITY_MPS2,
+                config.sensors.gravity_sigma_rad,
+                &mut rng,
+            );
         let (roll, pitch) = roll_pitch_from_gravity(&gravity_rover);
         let session_from_rover = Isometry3::from_parts(
             Translation3::new(guess[0], guess[1], world_from_rover.translation.z),
@@ -125,6 +145,7 @@ impl<'a> SessionSim<'a> {
             vo,
             rng,
             far_rng: ChaCha8Rng::seed_from_u64(seed ^ FAR_STREAM),
+            gravity_bias: bias,
             navigator,
             obstacles: ObstacleMemory::new(&config.obstacles),
             seen: SeenGrid::with_min_views(0.25, config.seen_ground_min_views),
@@ -367,12 +388,13 @@ impl<'a> SessionSim<'a> {
         let world_from_rover = self.state.pose(self.moon);
         let true_step = prev.world_from_rover.inverse() * world_from_rover;
         let vo_prev_from_cur = self.vo.measure(&true_step);
-        let gravity_rover = gravity_in_rover(
-            &world_from_rover,
-            LUNAR_GRAVITY_MPS2,
-            self.config.sensors.gravity_sigma_rad,
-            &mut self.rng,
-        );
+        let gravity_rover = self.gravity_bias
+            * gravity_in_rover(
+                &world_from_rover,
+                LUNAR_GRAVITY_MPS2,
+                self.config.sensors.gravity_sigma_rad,
+                &mut self.rng,
+            );
         let integrated = prev.session_from_rover * vo_prev_from_cur;
         let (_, _, yaw) = integrated.rotation.euler_angles();
         let (roll, pitch) = roll_pitch_from_gravity(&gravity_rover);
@@ -430,6 +452,38 @@ mod tests {
         let g = r.inverse() * Vector3::new(0.0, 0.0, -1.622);
         let (roll, pitch) = roll_pitch_from_gravity(&g);
         assert!((roll - 0.1).abs() < 1e-12 && (pitch + 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gravity_bias_is_a_constant_seeded_tilt() {
+        let a = gravity_bias(0.005, 4);
+        assert!((a.angle() - 0.005).abs() < 1e-12);
+        assert!(a.axis().unwrap().z.abs() < 1e-12, "horizontal axis");
+        assert_eq!(a, gravity_bias(0.005, 4));
+        assert!(
+            a.angle_to(&gravity_bias(0.005, 5)) > 1e-6,
+            "direction from the seed"
+        );
+        assert_eq!(gravity_bias(0.0, 4), UnitQuaternion::identity());
+
+        let moon = Moon::generate(&MoonConfig::default(), 3).unwrap();
+        let (x, y) = moon.nearest_clear_position(4.5, 0.0, 1.0, 0.08);
+        let mut config = SessionConfig {
+            duration_s: 5.0,
+            start: [x, y, 1.5],
+            ..SessionConfig::default()
+        };
+        config.sensors.gravity_sigma_rad = 0.0;
+        config.sensors.gravity_bias_rad = 0.005;
+        let log = run_session(&moon, &config, 4).unwrap();
+        for tick in &log.ticks {
+            let truth = tick.world_from_rover.rotation.inverse() * Vector3::new(0.0, 0.0, -1.0);
+            let measured = tick.gravity_rover.normalize();
+            assert!((measured - a * truth).norm() < 1e-9, "tick {}", tick.time_s);
+            assert!(measured.angle(&truth) > 0.004, "tick {}", tick.time_s);
+        }
+        config.sensors.gravity_bias_rad = 0.2;
+        assert!(run_session(&moon, &config, 4).is_err(), "validated");
     }
 
     #[test]

@@ -116,6 +116,10 @@ impl SessionConfig {
         if !self.collision_radius_m.is_finite() || !self.collision_min_rock_radius_m.is_finite() {
             return bad("collision radii must be finite");
         }
+        let bias = self.sensors.gravity_bias_rad;
+        if !(bias.is_finite() && (0.0..=0.1).contains(&bias)) {
+            return bad("sensors.gravity_bias_rad must be within 0..=0.1 (radians)");
+        }
         if !(self.start_clear_radius_m.is_finite() && self.start_clear_radius_m >= 0.0) {
             return bad("start_clear_radius_m must be a non-negative number");
         }
