@@ -7,15 +7,20 @@
 #
 #   scripts/bench_stream.sh [--seed S] [extra `eval stream` options...]   (from anywhere)
 # Environment: SEGLOC_DATA (default ../shared/data, relative to the repo root),
-# CARGO_TARGET_DIR.
+# CARGO_TARGET_DIR, SEGLOC_BIN (a built binary to measure instead of building one).
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
 data="${SEGLOC_DATA:-../shared/data}"
 [ -d "$data/lunarloc" ] || { echo "bench_stream: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
 target="${CARGO_TARGET_DIR:-target}"
-cargo build --release --quiet --bin segloc
-bin="$target/release/segloc"
+# SEGLOC_BIN: an already built binary (skips the build)
+if [ -n "${SEGLOC_BIN:-}" ]; then
+  bin="$SEGLOC_BIN"
+else
+  cargo build --release --quiet --bin segloc
+  bin="$target/release/segloc"
+fi
 out="$target/bench"
 mkdir -p "$out"
 extra=("$@")
