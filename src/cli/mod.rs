@@ -7,6 +7,7 @@ mod demo;
 mod detect;
 mod eval;
 mod graph;
+mod graph_stereo;
 mod grid;
 mod localize;
 mod map;
