@@ -71,17 +71,28 @@ fn track_level(
     d0: (f32, f32),
     config: &KltConfig,
 ) -> Option<((f32, f32), f32)> {
-    let hw = config.half_window_px as isize;
-    let n = ((2 * hw + 1) * (2 * hw + 1)) as usize;
+    let hw = config.half_window_px;
+    let side = 2 * hw + 1;
+    let n = side * side;
+    // The template with a one-pixel border, for central-difference gradients.
+    let mut big = Vec::with_capacity((side + 2) * (side + 2));
+    a.patch(
+        p.0 - hw as f32 - 1.0,
+        p.1 - hw as f32 - 1.0,
+        side + 2,
+        side + 2,
+        &mut big,
+    );
+    let stride = side + 2;
     let mut template = Vec::with_capacity(n);
     let mut grads = Vec::with_capacity(n);
     let (mut gxx, mut gxy, mut gyy) = (0.0f32, 0.0f32, 0.0f32);
-    for dy in -hw..=hw {
-        for dx in -hw..=hw {
-            let (x, y) = (p.0 + dx as f32, p.1 + dy as f32);
-            let gx = 0.5 * (a.sample(x + 1.0, y) - a.sample(x - 1.0, y));
-            let gy = 0.5 * (a.sample(x, y + 1.0) - a.sample(x, y - 1.0));
-            template.push(a.sample(x, y));
+    for j in 1..=side {
+        for i in 1..=side {
+            let k = j * stride + i;
+            let gx = 0.5 * (big[k + 1] - big[k - 1]);
+            let gy = 0.5 * (big[k + stride] - big[k - stride]);
+            template.push(big[k]);
             grads.push((gx, gy));
             gxx += gx * gx;
             gxy += gx * gy;
@@ -95,18 +106,21 @@ fn track_level(
     }
     let mut d = d0;
     let mut residual = 0.0;
+    let mut window = Vec::with_capacity(n);
     for _ in 0..config.iterations {
+        b.patch(
+            p.0 + d.0 - hw as f32,
+            p.1 + d.1 - hw as f32,
+            side,
+            side,
+            &mut window,
+        );
         let (mut ex, mut ey, mut abs_sum) = (0.0f32, 0.0f32, 0.0f32);
-        let mut k = 0;
-        for dy in -hw..=hw {
-            for dx in -hw..=hw {
-                let (x, y) = (p.0 + d.0 + dx as f32, p.1 + d.1 + dy as f32);
-                let diff = b.sample(x, y) - template[k];
-                ex += diff * grads[k].0;
-                ey += diff * grads[k].1;
-                abs_sum += diff.abs();
-                k += 1;
-            }
+        for k in 0..n {
+            let diff = window[k] - template[k];
+            ex += diff * grads[k].0;
+            ey += diff * grads[k].1;
+            abs_sum += diff.abs();
         }
         residual = abs_sum / n as f32;
         let step = ((gyy * ex - gxy * ey) / det, (gxx * ey - gxy * ex) / det);

@@ -45,6 +45,40 @@ impl FloatImage {
         (a + (b - a) * fx) + ((c + (d - c) * fx) - (a + (b - a) * fx)) * fy
     }
 
+    /// Bilinear samples at `(x0 + i, y0 + j)` for `i < w`, `j < h`, row by row, into `out`.
+    /// All samples share one pair of interpolation weights, so the interior is sampled
+    /// without clamping or recomputing them.
+    pub fn patch(&self, x0: f32, y0: f32, w: usize, h: usize, out: &mut Vec<f32>) {
+        out.clear();
+        let (fx0, fy0) = (x0.floor(), y0.floor());
+        let (xi, yi) = (fx0 as isize, fy0 as isize);
+        let inside =
+            xi >= 0 && yi >= 0 && (xi as usize + w) < self.width && (yi as usize + h) < self.height;
+        if !inside {
+            for j in 0..h {
+                for i in 0..w {
+                    out.push(self.sample(x0 + i as f32, y0 + j as f32));
+                }
+            }
+            return;
+        }
+        let (fx, fy) = (x0 - fx0, y0 - fy0);
+        let (w00, w10, w01, w11) = (
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        );
+        let (xi, yi) = (xi as usize, yi as usize);
+        for j in 0..h {
+            let r0 = &self.data[(yi + j) * self.width + xi..][..w + 1];
+            let r1 = &self.data[(yi + j + 1) * self.width + xi..][..w + 1];
+            for i in 0..w {
+                out.push(w00 * r0[i] + w10 * r0[i + 1] + w01 * r1[i] + w11 * r1[i + 1]);
+            }
+        }
+    }
+
     /// The image at half resolution (2 × 2 means).
     pub fn half(&self) -> Self {
         let (w, h) = (self.width / 2, self.height / 2);

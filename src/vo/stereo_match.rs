@@ -49,20 +49,12 @@ pub fn match_point(
         return None;
     }
     let mut template = Vec::with_capacity(side * side);
-    for dy in -hw..=hw {
-        for dx in -hw..=hw {
-            template.push(left.sample(x + dx as f32, y + dy as f32));
-        }
-    }
+    left.patch(x - hw as f32, y - hw as f32, side, side, &mut template);
     // Right rows at the same sub-pixel offsets, from x − d_max − hw to x − d_min + hw.
     let span = (d_max - d_min) as usize + side;
     let x0 = x - (d_max + hw) as f32;
-    let mut strip = vec![0.0f32; side * span];
-    for (r, dy) in (-hw..=hw).enumerate() {
-        for c in 0..span {
-            strip[r * span + c] = right.sample(x0 + c as f32, y + dy as f32);
-        }
-    }
+    let mut strip = Vec::with_capacity(side * span);
+    right.patch(x0, y - hw as f32, span, side, &mut strip);
     let count = (d_max - d_min + 1) as usize;
     let mut costs = vec![0.0f32; count];
     for (k, cost) in costs.iter_mut().enumerate() {
