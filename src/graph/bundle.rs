@@ -20,6 +20,9 @@ use super::{GraphError, VarKey};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 use std::time::Instant;
 
+/// A step: `δ` per free pose, then per free point.
+type Step = (Vec<Vector6<f64>>, Vec<Vector3<f64>>);
+
 /// One stereo factor's place in the reduced system.
 struct Observation {
     factor: usize,
@@ -141,7 +144,7 @@ impl Layout {
         &self,
         lin: &Linearized,
         lambda: f64,
-    ) -> Option<(Vec<Vector6<f64>>, Vec<Vector3<f64>>)> {
+    ) -> Option<Step> {
         let n = 6 * self.pose_slots.len();
         let mut s = DMatrix::<f64>::zeros(n, n);
         let mut b = DVector::<f64>::zeros(n);
@@ -193,7 +196,7 @@ impl Layout {
     fn retract(
         &self,
         poses: &[Isometry3<f64>],
-        step: &(Vec<Vector6<f64>>, Vec<Vector3<f64>>),
+        step: &Step,
         out: &mut Vec<Isometry3<f64>>,
     ) -> f64 {
         out.clear();

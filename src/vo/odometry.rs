@@ -73,6 +73,9 @@ impl VoConfig {
     }
 }
 
+/// A frame's motion: `curr_from_prev`, the inlier count and the refinement's `JᵀJ`.
+type Motion = (Isometry3<f64>, usize, Matrix6<f64>);
+
 /// A tracked feature: where it is in the current left image and its point in the current
 /// left camera's frame.
 #[derive(Clone, Copy, Debug)]
@@ -200,7 +203,7 @@ impl StereoOdometry {
         prev: &Pyramid,
         curr: &Pyramid,
         right: &FloatImage,
-    ) -> (usize, Option<(Isometry3<f64>, usize, Matrix6<f64>)>) {
+    ) -> (usize, Option<Motion>) {
         let points: Vec<(f32, f32)> = self.features.iter().map(|f| (f.x, f.y)).collect();
         let moved = track(prev, curr, &points, &self.config.klt);
         let mut kept = Vec::new();
