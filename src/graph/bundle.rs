@@ -140,11 +140,7 @@ impl Layout {
 
     /// The damped step `(δ_pose, δ_point)`, or `None` if the reduced system is not positive
     /// definite.
-    fn solve(
-        &self,
-        lin: &Linearized,
-        lambda: f64,
-    ) -> Option<Step> {
+    fn solve(&self, lin: &Linearized, lambda: f64) -> Option<Step> {
         let n = 6 * self.pose_slots.len();
         let mut s = DMatrix::<f64>::zeros(n, n);
         let mut b = DVector::<f64>::zeros(n);
@@ -193,12 +189,7 @@ impl Layout {
     }
 
     /// The estimate after a step; returns the largest step entry too.
-    fn retract(
-        &self,
-        poses: &[Isometry3<f64>],
-        step: &Step,
-        out: &mut Vec<Isometry3<f64>>,
-    ) -> f64 {
+    fn retract(&self, poses: &[Isometry3<f64>], step: &Step, out: &mut Vec<Isometry3<f64>>) -> f64 {
         out.clear();
         out.extend_from_slice(poses);
         let mut step_max: f64 = 0.0;
