@@ -38,7 +38,7 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("foundation", ["maps", "clipper", "spatial", "ipex", "font", "memory"]),
     ("geometry", ["graph", "align"]),
     ("landmarks and relocalization", ["landmarks", "relocalize"]),
-    ("engine users", ["localizer", "perception", "planning", "mapping", "merge", "io"]),
+    ("engine users", ["localizer", "perception", "planning", "mapping", "merge", "io", "vo"]),
     ("simulation", ["sim"]),
     ("applications", ["mission", "eval"]),
 ]

@@ -29,6 +29,7 @@ pub mod planning;
 pub mod relocalize;
 pub mod sim;
 pub mod spatial;
+pub mod vo;
 
 pub use segloc_clipper as clipper;
 pub use segloc_maps as maps;

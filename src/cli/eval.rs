@@ -22,6 +22,9 @@ use std::path::{Path, PathBuf};
 /// Evaluation commands.
 #[derive(Subcommand, Debug)]
 pub enum EvalCommand {
+    /// Stereo visual odometry on a KITTI-layout sequence with ground truth: end-point
+    /// translation error as a percentage of the distance, rotation error, time per frame.
+    Vo(super::vo::EvalVoArgs),
     /// Relocalize pairs of LunarLoc traverses under random rigid transforms.
     Lunarloc {
         /// The data folder holding `lunarloc/traverse_N.csv`.
@@ -137,6 +140,7 @@ pub struct StreamArgs {
 /// Run an evaluation.
 pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
     match cmd {
+        EvalCommand::Vo(args) => super::vo::eval(args),
         EvalCommand::Lunarloc {
             data,
             pairs,

@@ -37,6 +37,33 @@ pub enum GraphCommand {
     Corrupt(CorruptArgs),
     /// Trajectory error of an estimate against ground truth.
     Ate(AteArgs),
+    /// Stereo bundle adjustment of GTSAM's stereo VO example format (calibration, camera
+    /// poses, stereo factors `pose landmark uL uR v X Y Z`).
+    StereoBa(StereoBaArgs),
+}
+
+/// Arguments of `segloc graph stereo-ba`.
+#[derive(Args, Debug)]
+pub struct StereoBaArgs {
+    /// Calibration file: `fx fy skew cx cy baseline_m`.
+    #[arg(long)]
+    pub calibration: PathBuf,
+    /// Camera poses: `id` and the 4 × 4 matrix `world_from_camera` row by row per line.
+    #[arg(long)]
+    pub poses: PathBuf,
+    /// Stereo factors: `pose landmark u_left u_right v X Y Z` per line.
+    #[arg(long)]
+    pub factors: PathBuf,
+    /// Pixel noise (isotropic standard deviation, pixels).
+    #[arg(long, default_value_t = 1.0)]
+    pub sigma_px: f64,
+    /// Solve this many times from the same start and report the fastest run (`time_ms`)
+    /// and the median (`time_median_ms`).
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+    /// Print one JSON object with the results.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Robust kernel choice on the command line.
@@ -198,6 +225,7 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
         GraphCommand::BenchIncremental(a) => bench_incremental(a),
         GraphCommand::Corrupt(a) => corrupt(a),
         GraphCommand::Ate(a) => ate(a),
+        GraphCommand::StereoBa(a) => super::graph_stereo::stereo_ba(a),
     };
     match result {
         Ok(()) => Ok(0),
@@ -222,7 +250,7 @@ pub fn run(args: &GraphArgs) -> anyhow::Result<i32> {
 /// An invalid command-line value.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
-struct UsageError(String);
+pub(crate) struct UsageError(pub(crate) String);
 
 fn read_file(path: &Path, options: &ReadOptions) -> anyhow::Result<GraphFile> {
     let file = GraphFile::read_with(path, options)?;

@@ -7,6 +7,7 @@ mod demo;
 mod detect;
 mod eval;
 mod graph;
+mod graph_stereo;
 mod grid;
 mod localize;
 mod map;
@@ -16,6 +17,7 @@ mod sim;
 mod sim_export;
 mod sim_field;
 mod sim_render;
+mod vo;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -70,6 +72,8 @@ pub enum Command {
     Sim(sim::SimCommand),
     /// The two-session mission on the synthetic moon: map, relocalize, LAC maps scored.
     Mission(mission::MissionArgs),
+    /// Stereo visual odometry: a stereo sequence to the left camera's trajectory (TUM).
+    Vo(vo::VoArgs),
 }
 
 /// Run a parsed command line; returns the exit code.
@@ -88,6 +92,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Detect(args) => detect::run(&args),
         Command::Sim(cmd) => sim::run(&cmd, &config),
         Command::Mission(args) => mission::run(&args, &config, cli.config.is_some()),
+        Command::Vo(args) => vo::run(&args),
     }
 }
 

@@ -22,6 +22,8 @@
 //! * [`IncrementalGraph`]: online use, skipping solves that cannot change the optimum,
 //!   solving a window of recent poses exactly (`window_solve`) and keeping the settled part
 //!   on its last linearisation (`linear_model`) between rebuilds.
+//! * [`stereo`]: the rectified stereo camera of the stereo projection factor
+//!   ([`PoseGraph::add_stereo_observation`]); [`stereo_file`]: GTSAM's stereo VO example.
 //! * [`file`](mod@file), [`g2o`], [`toro`]: g2o 3D and TORO 3D files; [`synthetic`] and [`metrics`]
 //!   for tests and benchmarks.
 //!
@@ -47,6 +49,7 @@
 //! # Ok::<(), segloc::graph::GraphError>(())
 //! ```
 
+mod bundle;
 mod components;
 mod error;
 mod factor_paths;
@@ -66,6 +69,8 @@ pub mod se3;
 mod solver;
 #[cfg(test)]
 mod solver_tests;
+pub mod stereo;
+pub mod stereo_file;
 mod structure;
 pub mod synthetic;
 pub mod toro;
@@ -81,6 +86,7 @@ pub use solver::{
     Algorithm, Damping, GncConfig, Initialization, IterationLog, OptimizationReport, Profile,
     SolverConfig, Termination,
 };
+pub use stereo::StereoCalibration;
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

@@ -3,9 +3,10 @@
 use super::factors::{describe, is_finite_pose, Factor, FactorKind};
 use super::robust::RobustKernel;
 use super::solver::{self, OptimizationReport, SolverConfig};
+use super::stereo::StereoCalibration;
 use super::structure::NormalEquations;
 use super::{ComponentInfo, GraphError, VarKey};
-use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 
 /// An SE(3) pose graph: rover poses, prior-map frames and the factors between them.
@@ -223,6 +224,33 @@ impl PoseGraph {
         );
         let kind = FactorKind::Point { pose, point };
         self.push_binary(kind, pose, point, z, info6, kernel)
+    }
+
+    /// Adds a stereo observation of landmark `point_id` from the camera pose `pose_id`
+    /// (`world_from_camera`, the left camera; x right, y down, z forward): the pixels
+    /// `uv = (u_left, u_right, v)` with the 3 × 3 `information` (px⁻²); residual
+    /// `π(Rᵀ (l − t)) − uv`, as GTSAM's `GenericStereoFactor`. Returns the factor index.
+    pub fn add_stereo_observation(
+        &mut self,
+        pose_id: u64,
+        point_id: u64,
+        uv: Vector3<f64>,
+        camera: StereoCalibration,
+        information: Matrix3<f64>,
+        kernel: RobustKernel,
+    ) -> Result<usize, GraphError> {
+        let pose = VarKey::Pose(pose_id);
+        let point = VarKey::Point(point_id);
+        let ia = self.var_index(pose)?;
+        let ib = self.var_index(point)?;
+        let mut info6 = Matrix6::identity();
+        info6.fixed_view_mut::<3, 3>(3, 3).copy_from(&information);
+        let z = Isometry3::from_parts(Translation3::from(uv), UnitQuaternion::identity());
+        let kind = FactorKind::Stereo { pose, point };
+        let f = Factor::new(kind, [ia, ib], false, z, info6, kernel)?.with_camera(camera)?;
+        self.factors.push(f);
+        self.structure_version += 1;
+        Ok(self.factors.len() - 1)
     }
 
     /// Adds a relocalization of pose `pose_id` in the prior map whose frame variable is

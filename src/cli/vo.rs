@@ -1,0 +1,201 @@
+//! `segloc vo` and `segloc eval vo`: stereo visual odometry on a sequence.
+//!
+//! Exit codes: 0 success, 2 bad input (a missing or inconsistent sequence, a bad
+//! calibration, an unwritable output), 1 anything else.
+
+use clap::Args;
+use segloc::graph::file::write_atomic;
+use segloc::vo::{run_sequence, tum, FrameResult, StereoSequence, VoConfig, VoError};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Arguments of `segloc vo`.
+#[derive(Args, Debug)]
+pub struct VoArgs {
+    /// A KITTI-layout folder: image_l/, image_r/, calib.txt (P0, P1); t = 0.1·frame.
+    #[arg(long)]
+    pub kitti: PathBuf,
+    /// Output trajectory (TUM: t tx ty tz qx qy qz qw), the left camera in the first left
+    /// camera's frame.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// VO configuration (TOML, fields of `VoConfig`).
+    #[arg(long, value_name = "FILE")]
+    pub vo_config: Option<PathBuf>,
+    /// Print one JSON object with the results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `segloc eval vo`.
+#[derive(Args, Debug)]
+pub struct EvalVoArgs {
+    /// A KITTI-layout folder with poses.txt.
+    #[arg(long)]
+    pub kitti: PathBuf,
+    /// VO configuration (TOML, fields of `VoConfig`).
+    #[arg(long, value_name = "FILE")]
+    pub vo_config: Option<PathBuf>,
+    /// Print one JSON object with the results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct Timing {
+    median: f64,
+    p90: f64,
+    p99: f64,
+    max: f64,
+}
+
+#[derive(Serialize)]
+struct VoOutput<'a> {
+    frames: usize,
+    tracked_features: f64,
+    inliers: f64,
+    lost_frames: usize,
+    keyframes: usize,
+    per_frame_ms: Timing,
+    config: &'a VoConfig,
+}
+
+fn config_of(path: &Option<PathBuf>) -> Result<VoConfig, VoError> {
+    let Some(p) = path else {
+        return Ok(VoConfig::standard());
+    };
+    let text = std::fs::read_to_string(p).map_err(|source| VoError::Io {
+        path: p.clone(),
+        source,
+    })?;
+    let config: VoConfig = toml::from_str(&text).map_err(|e| VoError::Parse {
+        path: p.clone(),
+        line: 0,
+        message: e.to_string(),
+    })?;
+    config.validate().map_err(|e| VoError::Parse {
+        path: p.clone(),
+        line: 0,
+        message: e.to_string(),
+    })?;
+    Ok(config)
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+fn summary<'a>(results: &[FrameResult], config: &'a VoConfig) -> VoOutput<'a> {
+    let mut ms: Vec<f64> = results.iter().map(|r| r.time_ms).collect();
+    ms.sort_by(f64::total_cmp);
+    let mut tracked: Vec<f64> = results.iter().skip(1).map(|r| r.tracked as f64).collect();
+    tracked.sort_by(f64::total_cmp);
+    let mut inliers: Vec<f64> = results.iter().skip(1).map(|r| r.inliers as f64).collect();
+    inliers.sort_by(f64::total_cmp);
+    VoOutput {
+        frames: results.len(),
+        tracked_features: percentile(&tracked, 0.5),
+        inliers: percentile(&inliers, 0.5),
+        lost_frames: results.iter().filter(|r| r.lost).count(),
+        keyframes: results.len(),
+        per_frame_ms: Timing {
+            median: percentile(&ms, 0.5),
+            p90: percentile(&ms, 0.9),
+            p99: percentile(&ms, 0.99),
+            max: ms.last().copied().unwrap_or(0.0),
+        },
+        config,
+    }
+}
+
+/// Bad input is exit 2 with the message; other failures propagate.
+fn exit_code(result: anyhow::Result<()>) -> anyhow::Result<i32> {
+    match result {
+        Ok(()) => Ok(0),
+        Err(e)
+            if e.downcast_ref::<VoError>().is_some()
+                || e.downcast_ref::<segloc::graph::GraphError>().is_some() =>
+        {
+            eprintln!("error: {e:#}");
+            Ok(2)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Runs `segloc vo`.
+pub fn run(a: &VoArgs) -> anyhow::Result<i32> {
+    exit_code((|| {
+        let config = config_of(&a.vo_config)?;
+        let sequence = StereoSequence::read_kitti(&a.kitti)?;
+        let results = run_sequence(&sequence, &config)?;
+        let poses: Vec<_> = results.iter().map(|r| (r.time_s, r.pose)).collect();
+        write_atomic(&a.output, tum::tum_text(&poses).as_bytes())?;
+        let out = summary(&results, &config);
+        if a.json {
+            super::print_json(&out)?;
+        } else {
+            println!("{} frames, {} lost, median {:.0} tracked, {:.1} ms per frame (median), {:.1} ms p99 -> {}", out.frames, out.lost_frames, out.tracked_features, out.per_frame_ms.median, out.per_frame_ms.p99, a.output.display());
+        }
+        Ok(())
+    })())
+}
+
+#[derive(Serialize)]
+struct EvalOutput<'a> {
+    distance_m: f64,
+    translation_error_m: f64,
+    translation_error_percent: f64,
+    rotation_error_deg: f64,
+    #[serde(flatten)]
+    vo: VoOutput<'a>,
+}
+
+/// Runs `segloc eval vo`.
+pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
+    exit_code((|| {
+        let config = config_of(&a.vo_config)?;
+        let sequence = StereoSequence::read_kitti(&a.kitti)?;
+        let Some(truth) = sequence.truth.clone() else {
+            return Err(VoError::Sequence {
+                path: a.kitti.join("poses.txt"),
+                message: "ground truth poses.txt is missing".into(),
+            }
+            .into());
+        };
+        let results = run_sequence(&sequence, &config)?;
+        let distance_m: f64 = truth
+            .windows(2)
+            .map(|w| (w[1].translation.vector - w[0].translation.vector).norm())
+            .sum();
+        let (Some(end), Some(end_truth)) = (results.last(), truth.last()) else {
+            return Err(VoError::Sequence {
+                path: a.kitti.clone(),
+                message: "no frames".into(),
+            }
+            .into());
+        };
+        let err = end_truth.inverse() * end.pose;
+        let translation_error_m =
+            (end.pose.translation.vector - end_truth.translation.vector).norm();
+        let out = EvalOutput {
+            distance_m,
+            translation_error_m,
+            translation_error_percent: 100.0 * translation_error_m / distance_m.max(1e-9),
+            rotation_error_deg: err.rotation.angle().to_degrees(),
+            vo: summary(&results, &config),
+        };
+        if a.json {
+            super::print_json(&out)?;
+        } else {
+            println!(
+                "{} frames over {:.2} m: end-point translation error {:.3} m ({:.2} %), rotation error {:.3}°; {:.1} ms per frame median, {:.1} ms p99, {} lost",
+                out.vo.frames, out.distance_m, out.translation_error_m, out.translation_error_percent, out.rotation_error_deg, out.vo.per_frame_ms.median, out.vo.per_frame_ms.p99, out.vo.lost_frames
+            );
+        }
+        Ok(())
+    })())
+}

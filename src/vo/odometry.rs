@@ -1,0 +1,276 @@
+//! The stereo visual odometry: a pipeline of named stages per frame.
+//!
+//! 1. `track`: the previous frame's features into the current left image (pyramidal KLT,
+//!    forward–backward checked);
+//! 2. `match_stereo`: each tracked feature along its row in the right image;
+//! 3. `estimate_motion`: RANSAC on the previous frame's 3D points and the current
+//!    measurements, refined (3D–2D, Huber);
+//! 4. `replenish`: new corners in the cells left empty, matched and triangulated;
+//! 5. `window`: a sliding window of recent frames and their points refined by bundle
+//!    adjustment on the pose graph's stereo factors (the oldest frame held).
+
+use super::corners::{cell_of, detect_corners, grid_size, CornerConfig};
+use super::klt::{track, KltConfig};
+use super::motion::{estimate_motion, Correspondence, MotionConfig};
+use super::pyramid::{FloatImage, Pyramid};
+use super::stereo_match::{match_point, StereoMatchConfig};
+use super::window::{SlidingWindow, WindowConfig};
+use super::VoError;
+use crate::graph::StereoCalibration;
+use crate::perception::GrayImage;
+use nalgebra::{Isometry3, Matrix6, Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Configuration of the visual odometry, one section per stage.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct VoConfig {
+    /// Pyramid levels of the tracker.
+    pub pyramid_levels: usize,
+    /// Corner detection.
+    pub corners: CornerConfig,
+    /// Frame-to-frame tracking.
+    pub klt: KltConfig,
+    /// Left–right matching.
+    pub stereo: StereoMatchConfig,
+    /// Motion estimation.
+    pub motion: MotionConfig,
+    /// Sliding-window bundle adjustment.
+    pub window: WindowConfig,
+}
+
+impl VoConfig {
+    /// The defaults with a usable number of pyramid levels.
+    pub fn standard() -> Self {
+        Self {
+            pyramid_levels: 3,
+            ..Self::default()
+        }
+    }
+
+    /// Checks the ranges, naming the TOML path of a bad value.
+    pub fn validate(&self) -> Result<(), VoError> {
+        let bad = |m: &str| Err(VoError::Config(m.to_string()));
+        if self.pyramid_levels == 0 || self.pyramid_levels > 6 {
+            return bad("pyramid_levels must be 1 to 6");
+        }
+        if self.corners.cell_px < 4 {
+            return bad("corners.cell_px must be at least 4");
+        }
+        if self.klt.half_window_px == 0 || self.klt.iterations == 0 {
+            return bad("klt.half_window_px and klt.iterations must be positive");
+        }
+        if !(self.stereo.max_disparity_px > self.stereo.min_disparity_px
+            && self.stereo.min_disparity_px >= 0.0)
+        {
+            return bad("stereo.max_disparity_px must exceed stereo.min_disparity_px >= 0");
+        }
+        if !(self.motion.inlier_px > 0.0 && self.motion.huber_px > 0.0) {
+            return bad("motion.inlier_px and motion.huber_px must be positive");
+        }
+        Ok(())
+    }
+}
+
+/// A frame's motion: `curr_from_prev`, the inlier count and the refinement's `JᵀJ`.
+type Motion = (Isometry3<f64>, usize, Matrix6<f64>);
+
+/// A tracked feature: where it is in the current left image and its point in the current
+/// left camera's frame.
+#[derive(Clone, Copy, Debug)]
+struct Feature {
+    id: u64,
+    x: f32,
+    y: f32,
+    p_camera: Point3<f64>,
+}
+
+/// What one frame gave.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameResult {
+    /// Frame time, seconds.
+    pub time_s: f64,
+    /// `first_from_camera`: the left camera's pose in the first left camera's frame.
+    #[serde(skip)]
+    pub pose: Isometry3<f64>,
+    /// Features tracked from the previous frame (after the forward–backward check).
+    pub tracked: usize,
+    /// Inliers of the motion.
+    pub inliers: usize,
+    /// Features held after replenishing.
+    pub features: usize,
+    /// True when the motion could not be estimated (the pose is the constant-velocity
+    /// prediction).
+    pub lost: bool,
+    /// `JᵀJ` of the motion refinement (px⁻², (rotation, translation)); zero when lost.
+    #[serde(skip)]
+    pub information: Matrix6<f64>,
+    /// Processing time of the frame (images decoded), milliseconds.
+    pub time_ms: f64,
+}
+
+/// Stereo visual odometry over a sequence of rectified pairs.
+pub struct StereoOdometry {
+    camera: StereoCalibration,
+    config: VoConfig,
+    previous: Option<Pyramid>,
+    features: Vec<Feature>,
+    next_id: u64,
+    first_from_camera: Isometry3<f64>,
+    last_motion: Isometry3<f64>,
+    window: SlidingWindow,
+    frame_index: u64,
+}
+
+impl StereoOdometry {
+    /// A new odometry for a camera.
+    pub fn new(camera: StereoCalibration, config: VoConfig) -> Result<Self, VoError> {
+        config.validate()?;
+        camera
+            .validate()
+            .map_err(|e| VoError::Config(format!("camera: {e}")))?;
+        let window = SlidingWindow::new(camera, config.window.clone());
+        Ok(Self {
+            camera,
+            config,
+            previous: None,
+            features: Vec::new(),
+            next_id: 0,
+            first_from_camera: Isometry3::identity(),
+            last_motion: Isometry3::identity(),
+            window,
+            frame_index: 0,
+        })
+    }
+
+    /// Processes one pair (same size, checked by the caller) at `time_s`.
+    pub fn process(&mut self, left: &GrayImage, right: &GrayImage, time_s: f64) -> FrameResult {
+        let start = Instant::now();
+        let pyramid = Pyramid::new(left, self.config.pyramid_levels);
+        let right = FloatImage::from_gray(right);
+        let (tracked, estimate) = match self.previous.take() {
+            Some(prev) => self.track_and_estimate(&prev, &pyramid, &right),
+            None => (0, None),
+        };
+        let lost = self.frame_index > 0 && estimate.is_none();
+        let (inliers, information) = match &estimate {
+            Some((_, inl, info)) => (*inl, *info),
+            None => (0, Matrix6::zeros()),
+        };
+        let curr_from_prev = match estimate {
+            Some((m, _, _)) => m,
+            None => self.last_motion,
+        };
+        if self.frame_index > 0 {
+            self.first_from_camera *= curr_from_prev.inverse();
+            self.last_motion = curr_from_prev;
+        }
+        self.replenish(&pyramid, &right);
+        let observations: Vec<(u64, Vector3<f64>, Point3<f64>)> = self
+            .features
+            .iter()
+            .filter_map(|f| {
+                self.camera
+                    .project(&f.p_camera.coords)
+                    .map(|uv| (f.id, uv, f.p_camera))
+            })
+            .collect();
+        if let Some(refined) =
+            self.window
+                .add_frame(self.frame_index, self.first_from_camera, &observations)
+        {
+            self.first_from_camera = refined;
+        }
+        self.previous = Some(pyramid);
+        self.frame_index += 1;
+        FrameResult {
+            time_s,
+            pose: self.first_from_camera,
+            tracked,
+            inliers,
+            features: self.features.len(),
+            lost,
+            information,
+            time_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// Stages 1–3: tracks the features, matches them in the right image and estimates the
+    /// motion; keeps the features with a new 3D point.
+    fn track_and_estimate(
+        &mut self,
+        prev: &Pyramid,
+        curr: &Pyramid,
+        right: &FloatImage,
+    ) -> (usize, Option<Motion>) {
+        let points: Vec<(f32, f32)> = self.features.iter().map(|f| (f.x, f.y)).collect();
+        let moved = track(prev, curr, &points, &self.config.klt);
+        let mut kept = Vec::new();
+        let mut correspondences = Vec::new();
+        for (f, m) in self.features.iter().zip(moved) {
+            let Some((x, y)) = m else { continue };
+            let disparity = match_point(curr.base(), right, x, y, &self.config.stereo);
+            let u_right = disparity.map_or(f64::NAN, |d| (x - d) as f64);
+            correspondences.push(Correspondence {
+                p_prev: f.p_camera,
+                uv: Vector3::new(x as f64, u_right, y as f64),
+            });
+            kept.push((*f, x, y, disparity));
+        }
+        let tracked = kept.len();
+        let estimate = estimate_motion(
+            &self.camera,
+            &correspondences,
+            &self.last_motion,
+            &self.config.motion,
+        );
+        self.features.clear();
+        if let Some(m) = &estimate {
+            for ((f, x, y, disparity), inlier) in kept.into_iter().zip(&m.inliers) {
+                let Some(d) = disparity.filter(|_| *inlier) else {
+                    continue;
+                };
+                let uv = Vector3::new(x as f64, (x - d) as f64, y as f64);
+                if let Some(p) = self.camera.backproject(&uv) {
+                    self.features.push(Feature {
+                        id: f.id,
+                        x,
+                        y,
+                        p_camera: Point3::from(p),
+                    });
+                }
+            }
+        }
+        let result = estimate.map(|m| {
+            let n = m.inliers.iter().filter(|&&b| b).count();
+            (m.curr_from_prev, n, m.information)
+        });
+        (tracked, result)
+    }
+
+    /// Stage 4: new corners in empty cells, matched and triangulated.
+    fn replenish(&mut self, pyramid: &Pyramid, right: &FloatImage) {
+        let base = pyramid.base();
+        let (cols, rows) = grid_size(base, &self.config.corners);
+        let mut occupied = vec![false; cols * rows];
+        for f in &self.features {
+            occupied[cell_of(f.x, f.y, base, &self.config.corners)] = true;
+        }
+        for (x, y) in detect_corners(base, &self.config.corners, &occupied) {
+            let Some(d) = match_point(base, right, x, y, &self.config.stereo) else {
+                continue;
+            };
+            let uv = Vector3::new(x as f64, (x - d) as f64, y as f64);
+            if let Some(p) = self.camera.backproject(&uv) {
+                self.features.push(Feature {
+                    id: self.next_id,
+                    x,
+                    y,
+                    p_camera: Point3::from(p),
+                });
+                self.next_id += 1;
+            }
+        }
+    }
+}

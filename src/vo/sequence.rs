@@ -1,0 +1,216 @@
+//! Stereo sequences on disk: the KITTI odometry layout (`image_l/NNNNNN.png`,
+//! `image_r/NNNNNN.png`, `calib.txt` with the projection matrices P0 and P1, optional
+//! `poses.txt`; frame k at t = 0.1·k s).
+
+use super::VoError;
+use crate::graph::StereoCalibration;
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use std::path::{Path, PathBuf};
+
+/// One stereo frame on disk.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramePaths {
+    /// Time, seconds.
+    pub time_s: f64,
+    /// Left image.
+    pub left: PathBuf,
+    /// Right image.
+    pub right: PathBuf,
+}
+
+/// A stereo sequence: calibration and frames in time order.
+#[derive(Clone, Debug)]
+pub struct StereoSequence {
+    /// The rectified pair's intrinsics and baseline.
+    pub calibration: StereoCalibration,
+    /// Frames, strictly increasing in time.
+    pub frames: Vec<FramePaths>,
+    /// Ground truth `first_from_camera` per frame, when the sequence has it.
+    pub truth: Option<Vec<Isometry3<f64>>>,
+}
+
+fn read(path: &Path) -> Result<String, VoError> {
+    std::fs::read_to_string(path).map_err(|source| VoError::Io {
+        path: path.into(),
+        source,
+    })
+}
+
+fn parse_row(path: &Path, line: usize, text: &str, count: usize) -> Result<Vec<f64>, VoError> {
+    let bad = |message: String| VoError::Parse {
+        path: path.into(),
+        line,
+        message,
+    };
+    let body = match text.split_once(':') {
+        Some((_, rest)) => rest,
+        None => text,
+    };
+    let values = body
+        .split_whitespace()
+        .map(|t| {
+            t.parse::<f64>()
+                .map_err(|_| bad(format!("'{t}' is not a number")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if values.len() != count {
+        return Err(bad(format!(
+            "expected {count} numbers, found {}",
+            values.len()
+        )));
+    }
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(bad("non-finite value".into()));
+    }
+    Ok(values)
+}
+
+/// Reads a KITTI `calib.txt`: P0 and P1 (the first two lines).
+pub fn read_kitti_calibration(path: &Path) -> Result<StereoCalibration, VoError> {
+    let text = read(path)?;
+    let lines: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty())
+        .collect();
+    if lines.len() < 2 {
+        return Err(VoError::Parse {
+            path: path.into(),
+            line: lines.len() + 1,
+            message: "expected the projection matrices P0 and P1".into(),
+        });
+    }
+    let p0 = parse_row(path, lines[0].0, lines[0].1, 12)?;
+    let p1 = parse_row(path, lines[1].0, lines[1].1, 12)?;
+    let calibration = StereoCalibration {
+        fx: p0[0],
+        fy: p0[5],
+        skew: p0[1],
+        cx: p0[2],
+        cy: p0[6],
+        baseline_m: if p1[0] != 0.0 { -p1[3] / p1[0] } else { 0.0 },
+    };
+    calibration.validate().map_err(|e| VoError::Parse {
+        path: path.into(),
+        line: lines[0].0,
+        message: e.to_string(),
+    })?;
+    Ok(calibration)
+}
+
+/// Reads KITTI poses (3 × 4 row-major `first_from_camera` per line).
+pub fn read_kitti_poses(path: &Path) -> Result<Vec<Isometry3<f64>>, VoError> {
+    let text = read(path)?;
+    let mut poses = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let v = parse_row(path, i + 1, line, 12)?;
+        let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
+        if (r.transpose() * r - Matrix3::identity()).abs().max() > 1e-3 {
+            return Err(VoError::Parse {
+                path: path.into(),
+                line: i + 1,
+                message: "the rotation block is not a rotation".into(),
+            });
+        }
+        let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
+        poses.push(Isometry3::from_parts(
+            Translation3::new(v[3], v[7], v[11]),
+            rotation,
+        ));
+    }
+    Ok(poses)
+}
+
+/// The frame number of a file name `NNNNNN.png`.
+fn frame_number(path: &Path) -> Option<u64> {
+    path.file_stem()?.to_str()?.parse().ok()
+}
+
+impl StereoSequence {
+    /// Reads a KITTI-layout folder. Every left image needs its right image.
+    pub fn read_kitti(dir: &Path) -> Result<Self, VoError> {
+        let calibration = read_kitti_calibration(&dir.join("calib.txt"))?;
+        let left_dir = dir.join("image_l");
+        let entries = std::fs::read_dir(&left_dir).map_err(|source| VoError::Io {
+            path: left_dir.clone(),
+            source,
+        })?;
+        let mut numbered = Vec::new();
+        for entry in entries {
+            let path = entry
+                .map_err(|source| VoError::Io {
+                    path: left_dir.clone(),
+                    source,
+                })?
+                .path();
+            if path.extension().and_then(|e| e.to_str()) != Some("png") {
+                continue;
+            }
+            let n = frame_number(&path).ok_or_else(|| VoError::Sequence {
+                path: path.clone(),
+                message: "the name is not a frame number (NNNNNN.png)".into(),
+            })?;
+            numbered.push((n, path));
+        }
+        numbered.sort();
+        if numbered.is_empty() {
+            return Err(VoError::Sequence {
+                path: left_dir,
+                message: "no PNG images".into(),
+            });
+        }
+        for pair in numbered.windows(2) {
+            if pair[0].0 == pair[1].0 {
+                return Err(VoError::Sequence {
+                    path: pair[1].1.clone(),
+                    message: format!(
+                        "frame {} (t = {:.1} s) is also {}: duplicated timestamp",
+                        pair[1].0,
+                        0.1 * pair[1].0 as f64,
+                        pair[0].1.display()
+                    ),
+                });
+            }
+        }
+        let mut frames = Vec::with_capacity(numbered.len());
+        for (n, left) in numbered {
+            let right = dir
+                .join("image_r")
+                .join(left.file_name().unwrap_or_default());
+            if !right.is_file() {
+                return Err(VoError::Sequence {
+                    path: right,
+                    message: format!("missing right image for {}", left.display()),
+                });
+            }
+            frames.push(FramePaths {
+                time_s: 0.1 * n as f64,
+                left,
+                right,
+            });
+        }
+        let truth_path = dir.join("poses.txt");
+        let truth = if truth_path.is_file() {
+            Some(read_kitti_poses(&truth_path)?)
+        } else {
+            None
+        };
+        if let Some(t) = &truth {
+            if t.len() != frames.len() {
+                return Err(VoError::Sequence {
+                    path: truth_path,
+                    message: format!("{} poses for {} frames", t.len(), frames.len()),
+                });
+            }
+        }
+        Ok(Self {
+            calibration,
+            frames,
+            truth,
+        })
+    }
+}
