@@ -211,7 +211,7 @@ fn total_cost(factors: &[Factor], poses: &[Isometry3<f64>]) -> f64 {
 
 impl PoseGraph {
     /// Bundle adjustment of a graph that holds camera poses, landmark points and stereo
-    /// projection factors only (see the [module notes](super::bundle)), by Levenberg–
+    /// projection factors only (see the notes of `graph/bundle.rs`), by Levenberg–
     /// Marquardt on the Schur complement. Fixed variables are held; the graph needs at
     /// least one fixed pose (or enough fixed points) for its gauge, or the damping alone
     /// holds it.

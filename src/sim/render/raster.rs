@@ -236,9 +236,9 @@ fn setup(v: [[f64; 3]; 3], triangle: u32, w: f64, h: f64) -> Option<ScreenTriang
     if fmax(xs) < 0.0 || fmin(xs) > w - 1.0 || fmax(ys) < 0.0 || fmin(ys) > h - 1.0 {
         return None;
     }
-    if !(fmin(xs) > -MAX_COORD_PX && fmax(xs) < MAX_COORD_PX)
-        || !(fmin(ys) > -MAX_COORD_PX && fmax(ys) < MAX_COORD_PX)
-    {
+    // written so that a NaN coordinate fails the test too
+    let within = |a: [f64; 3]| fmin(a) > -MAX_COORD_PX && fmax(a) < MAX_COORD_PX;
+    if !(within(xs) && within(ys)) {
         return None;
     }
     let (dx1, dy1, dk1) = (v[1][0] - v[0][0], v[1][1] - v[0][1], v[1][2] - v[0][2]);
