@@ -25,7 +25,9 @@ fn cm(value: &serde_json::Value) -> f64 {
 }
 
 /// Traverses 3 and 5 against each other, both ways (measured with seed 1: online RMSE
-/// 1.03 and 0.71 cm, 21 and 11 fixes, none wrong; odometry alone 3.5 and 2.6 cm).
+/// 0.72 and 0.70 cm, 16 and 10 fixes, none wrong, first fix after 144 and 24 s; odometry
+/// alone 3.9 and 2.6 cm). 3 → 5's first submaps cannot tell their yaw to 0.6° (σ), so the
+/// fix gate waits for a later one.
 #[test]
 fn paper_pair_3_5_both_ways_is_placed_within_centimetres() {
     let Some(report) = eval_stream("3:5,5:3") else {
@@ -46,7 +48,7 @@ fn paper_pair_3_5_both_ways_is_placed_within_centimetres() {
             "{name}: RMSE where it sees the prior map {seen} cm"
         );
         let fix_s = row["time_to_first_fix_s"].as_f64().expect("a fix");
-        assert!(fix_s <= 60.0, "{name}: first fix after {fix_s} s");
+        assert!(fix_s <= 200.0, "{name}: first fix after {fix_s} s");
     }
     assert!(report["config"]["fusion"].is_object());
 }
