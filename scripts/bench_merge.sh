@@ -2,7 +2,7 @@
 # Map merging with the real LunarLoc traverses as agents. Writes the section of
 # BENCHMARKS.md between <!-- merge:begin --> and <!-- merge:end --> (nothing else).
 #
-#   scripts/bench_merge.sh        (from anywhere)
+#   scripts/bench_merge.sh [--print]       (from anywhere; --print: print, do not write)
 # Environment: SEGLOC_DATA (default ../shared/data, relative to the repo root).
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -20,8 +20,8 @@ echo "[bench_merge] all 17 agents + 2 decoys, 3 trials" >&2
 $bin eval merge --data "$data" --agents 17 --decoys 2 --trials 3 --seed 2 --json > "$out/merge17.json"
 echo "[bench_merge] rock map of the merged 17-traverse map" >&2
 $bin eval merge --data "$data" --rock-map --seed 2 --json > "$out/merge_rocks.json"
-python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" "$(cut -d' ' -f1-3 /proc/loadavg)" <<'PY'
-import json, re, sys
+section=$(python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" "$(cut -d' ' -f1-3 /proc/loadavg)" <<'PY'
+import json, sys
 out, date, machine, commit, load = sys.argv[1:6]
 m5 = json.load(open(f"{out}/merge5.json")); m5b = json.load(open(f"{out}/merge5b.json")); m17 = json.load(open(f"{out}/merge17.json"))
 L = []
@@ -51,17 +51,9 @@ def block(r, title, cmd):
     w("")
 block(m5, "5 agents + 1 decoy, 100 trials", "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 1")
 block(m5b, "5 agents + 1 decoy, 100 trials, another seed", "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 3")
-w("Viewpoint bias: a boulder centroid from stereo points lies on the face the camera sees, nearer the camera than "
-  "the boulder's centre. Uncorrected, a reference traverse that saw its boulders from one side shifted or turned "
-  "every agent by about a centimetre (20/400 placements outside 1 cm / 0.1° on seed 1, max 1.43 cm, 0.144°). "
-  "The agents' maps are now fused with each detection pushed 0.8 cm away from the rover along its line of sight "
-  "(`--view-bias-m`, the median over the 150 boulders seen from diverse directions, estimated from the traverses "
-  "themselves with `landmarks::view_bias::estimate_view_bias`; pooled over detections it is 1.4 cm, as large "
-  "boulders are seen most), and each landmark's covariance gains (1 cm)² along its mean line of sight "
-  "(`--view-bias-sigma-m`), so the frame refinement weighs boulders seen from all sides more than those seen "
-  "from one. A pairwise transform with fewer than 10 inliers is kept only if it fits to 2 cm "
-  "(`MergeConfig::weak_pair_*`): with the correction, a chance match of traverse 4 against its own mirror image "
-  "(6 inliers, 2.8–3.0 cm) had started to pass the relocalizer.")
+w("Viewpoint bias (default): each detection is pushed 0.8 cm away from the rover along its line of sight before "
+  "fusing, each landmark's covariance gains (1 cm)² along its mean line of sight, and a pairwise transform with "
+  "fewer than 10 inliers must fit to 2 cm ([design note](docs/design/viewpoint-bias.md)).")
 w("")
 block(m17, "All 17 traverses + 2 decoys, 3 trials", "segloc eval merge --agents 17 --decoys 2 --trials 3 --seed 2")
 rk = json.load(open(f"{out}/merge_rocks.json"))
@@ -74,15 +66,7 @@ w("")
 w(f"- merged map: rock F1 **{rk['merged_f1']:.3f}** (precision {rk['merged_precision']:.3f}, recall {rk['merged_recall']:.3f})")
 w(f"- best single traverse: {rk['best_single'][0]} with F1 {rk['best_single'][1]:.3f}; all: " + ", ".join(f"{n}: {f:.3f}" for n, f in rk['single_f1']))
 w("")
-text = "\n".join(L)
-path = "BENCHMARKS.md"
-doc = open(path).read()
-begin, end = "<!-- merge:begin -->", "<!-- merge:end -->"
-block_text = f"{begin}\n{text}\n{end}"
-if begin in doc and end in doc:
-    doc = re.sub(re.escape(begin) + r".*?" + re.escape(end), lambda m: block_text, doc, flags=re.S)
-else:
-    doc = doc.rstrip("\n") + "\n\n" + block_text + "\n"
-open(path, "w").write(doc)
-print("wrote the merge section of BENCHMARKS.md", file=sys.stderr)
+print("\n".join(L))
 PY
+)
+if [[ "${1:-}" == "--print" ]]; then echo "$section"; else echo "$section" | python3 scripts/bench_section.py merge; fi
