@@ -30,14 +30,13 @@
 //!
 //! Stages, one file each: [`frame_log`] (the frames kept), [`trajectory`] (the pose graph),
 //! [`relocalization`] and [`loop_closure`] (the attempts), [`fix_gate`], [`odometry_bias`],
-//! [`gravity`], [`lander_factor`], [`view_bias`], [`boulder_adjustment`], [`submap`],
+//! the gravity factors ([`crate::graph::gravity`]), [`lander_factor`], [`view_bias`], [`boulder_adjustment`], [`submap`],
 //! [`report`] (what the caller is told), [`config`].
 
 pub mod boulder_adjustment;
 pub mod config;
 pub mod fix_gate;
 pub mod frame_log;
-pub mod gravity;
 pub mod lander_factor;
 pub mod loop_closure;
 pub mod odometry_bias;

@@ -4,10 +4,9 @@
 
 use super::config::OdometryNoiseConfig;
 use super::frame_log::FrameLog;
-use super::gravity::gravity_information;
 use super::odometry_bias::{estimate_bias, BiasPrior, OdometryBias, OdometryStep, StepWeight};
 use super::LocalizerConfig;
-use crate::graph::{GraphError, PoseGraph, RobustKernel, SolverConfig};
+use crate::graph::{gravity_information, GraphError, PoseGraph, RobustKernel, SolverConfig};
 use nalgebra::{Isometry3, Matrix6};
 
 /// Frame id of the prior map (session 1's map) in a session's graph.

@@ -113,10 +113,8 @@ pub struct MissionConfig {
 impl Default for MissionConfig {
     /// Session 1 maps the site on the LAC coverage loops for 600 s; session 2 drives loops
     /// from 9.5 m out ([`WaypointConfig::outer_loops`]) for 300 s, the ground session 1
-    /// rarely reaches: on seeds 1–160 it lifts the seeds with geometric ≥ 285 from 139 to
-    /// 156 and rocks ≥ 270 from 97 to 147 against session 2 on the spiral around the
-    /// lander, where session 1's map is densest, at twice the session-2 error (median
-    /// 1.1 cm against 0.6 cm; BENCHMARKS.md, "Session 2's waypoints").
+    /// rarely reaches (the trade-off against its accuracy: docs/how-it-works.md, "Known
+    /// limits").
     ///
     /// [`WaypointConfig::outer_loops`]: crate::planning::waypoints::WaypointConfig::outer_loops
     fn default() -> Self {
@@ -143,7 +141,7 @@ impl Default for MissionConfig {
 impl MissionConfig {
     /// Both sessions on the LAC coverage loops (around the lander, then at 8 m and 12.5 m)
     /// at 0.45 m/s for 600 s each: session 2 re-drives session 1's loops for twice as long
-    /// as the default's 300 s on the outer ones (BENCHMARKS.md).
+    /// as the default's 300 s on the outer ones.
     pub fn lac_coverage() -> Self {
         MissionConfig {
             session_2: None,
@@ -153,7 +151,7 @@ impl MissionConfig {
     }
 
     /// The mission before the coverage loops became the default: both sessions 300 s on the
-    /// spiral around the lander (as measured in BENCHMARKS.md before 2026-11-24).
+    /// spiral around the lander (the default before 2026-11-24; docs/experiments.md).
     pub fn spiral_only() -> Self {
         MissionConfig {
             seconds_per_session: 300.0,

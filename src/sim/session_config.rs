@@ -58,7 +58,7 @@ pub struct SessionConfig {
     pub seen_ground_toward_camera_m: Option<f64>,
     /// Ground counts as seen once seen in this many camera frames (a visible rock is missed
     /// in one frame now and then; the ground the rover stood on is known at once). Measured
-    /// at 2 and 3 over 60 seeds (BENCHMARKS.md, "Obstacle sizes from their sightings"): no
+    /// at 2 and 3 over 60 seeds (docs/experiments.md): no
     /// fewer collisions, so 1.
     pub seen_ground_min_views: u8,
     /// Ground within this distance of the start pose is known to be clear, metres: the

@@ -1,6 +1,6 @@
 //! Gravity factors: the IMU's gravity direction holds every frame's roll and pitch in the
 //! pose graph. Without them the tilt drifts with the odometry's relative factors (0.3–0.7°
-//! rms over a 600 s session, 3–5 cm of height at 4 m range: BENCHMARKS.md, mission block).
+//! rms over a 600 s session, 3–5 cm of height at 4 m range; docs/experiments.md).
 
 use nalgebra::{Isometry3, Matrix6};
 
