@@ -24,8 +24,7 @@
 //! **The viewpoint bias.** A stereo centroid lies on the boulder's visible face, in front
 //! of its centre by a fraction `f` of its size. A wrong `f` does not average out: a
 //! boulder seen from two sides lands as two points `2 Δf × size` apart, and the adjustment
-//! bends the trajectory to reconcile them (on seeds 1–40 of the mission, an `f` 0.05 short
-//! left session 1 1.3–1.7 cm off where the right one gave 0.3–0.5 cm). With
+//! bends the trajectory to reconcile them (docs/design/boulder-adjustment.md). With
 //! [`BoulderAdjustmentConfig::estimate_view_bias`], `f` is estimated with the poses and
 //! boulders from its profile: the adjustment is solved at the fusion's `f` and a step either
 //! side (warm-started), and once more at the minimum of the parabola through the three
@@ -54,17 +53,14 @@ use serde::{Deserialize, Serialize};
 pub struct BoulderAdjustmentConfig {
     /// Run the stage.
     pub enabled: bool,
-    /// Rounds of clustering and optimisation (a second round, clustering with the adjusted
-    /// poses, changed session 1's error by less than 0.1 mm on seeds 1–10).
+    /// Rounds of clustering and optimisation (docs/design/boulder-adjustment.md).
     pub rounds: usize,
     /// Boulders with fewer detections are left out.
     pub min_observations: usize,
     /// Model error (1 σ, m) added in every direction to each detection: what is left of
     /// the viewpoint bias after its correction, and the boulder's shape.
     pub model_sigma_m: f64,
-    /// Cauchy width of the detection residuals, in σ (at 3, the solve crept through 15
-    /// iterations of reweighting on seed 1 and stopped 17 cost units short at the
-    /// tolerance below; at 5 it converges in 5, to the same poses).
+    /// Cauchy width of the detection residuals, in σ (docs/design/boulder-adjustment.md).
     pub cauchy_sigmas: f64,
     /// Estimate the detections' viewpoint-bias size fraction with the poses and boulders:
     /// solve at the fusion's fraction and `view_bias_step` either side, and once more at
