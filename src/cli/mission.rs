@@ -80,12 +80,8 @@ fn mission_config(
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read {}", path.display()))?;
-            let config: MissionConfig = toml::from_str(&text)
-                .with_context(|| format!("mission config {}", path.display()))?;
-            config
-                .validate()
-                .with_context(|| format!("mission config {}", path.display()))?;
-            config
+            MissionConfig::from_toml(&text)
+                .with_context(|| format!("mission config {}", path.display()))?
         }
         None if args.coverage => MissionConfig::lac_coverage(),
         None => MissionConfig::default(),

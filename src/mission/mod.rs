@@ -24,6 +24,7 @@
 //! println!("{}", serde_json::to_string(&report.report).unwrap());
 //! ```
 
+mod config_file;
 pub mod lost_session;
 pub mod mapping_session;
 pub mod maps;
