@@ -35,27 +35,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .cloned()
             .collect();
         let submap = fuse_detections(&submap_detections, &FusionConfig::default());
-        if submap.len() < 3 {
-            println!("frames ..{end}: {} landmarks, too few to try", submap.len());
-            continue;
-        }
+        // a submap too small to fix a transform comes back refused (`too_few_landmarks`)
         let answer = relocalizer.relocalize(&submap)?;
-        match answer.prior_from_query {
-            Some(estimate) => {
-                let (t, r) = transform_error(&estimate, &truth);
+        match &answer.outcome {
+            Ok(accepted) => {
+                let (t, r) = transform_error(&accepted.prior_from_query, &truth);
                 println!(
                     "frames ..{end}: {} landmarks -> accepted, {} inliers, error {:.2} cm / {:.3}°, information trace {:.3e}",
                     submap.len(),
-                    answer.inliers.len(),
+                    accepted.inliers.len(),
                     t * 100.0,
                     r,
-                    answer.information.trace()
+                    accepted.information.trace()
                 );
             }
-            None => println!(
-                "frames ..{end}: {} landmarks -> refused: {}",
+            Err(refusal) => println!(
+                "frames ..{end}: {} landmarks -> refused ({}): {refusal}",
                 submap.len(),
-                answer.refusal.map(|r| r.to_string()).unwrap_or_default()
+                refusal.code()
             ),
         }
     }

@@ -52,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let t = Instant::now();
             let answer = relocalizer.relocalize(&query)?;
             let ms = t.elapsed().as_secs_f64() * 1e3;
-            inliers = answer.inliers.len();
+            inliers = answer.accepted().map_or(0, |a| a.inliers.len());
             if k >= 2 {
                 times_ms.push(ms);
             }

@@ -71,13 +71,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 *inliers
                     .entry(best.map_or(0, |h| h.inlier_count).min(12))
                     .or_default() += 1;
-                let Some(estimate) = answer.prior_from_query.filter(|_| answer.is_accepted())
-                else {
+                let Some(found) = answer.accepted() else {
                     continue;
                 };
                 accepted += 1;
-                let (t, r) = transform_error(&estimate, &truth);
-                let yaw_sigma_deg = answer
+                let (t, r) = transform_error(&found.prior_from_query, &truth);
+                let yaw_sigma_deg = found
                     .information
                     .try_inverse()
                     .map_or(f64::INFINITY, |c| c[(2, 2)].max(0.0).sqrt().to_degrees());

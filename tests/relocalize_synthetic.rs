@@ -21,12 +21,13 @@ fn generated_sessions_relocalize_to_the_truth() {
     for seed in 1..=6 {
         let (prior, query, truth) = two_sessions(&FieldConfig::default(), seed);
         let answer = relocalize(&prior, &query, &RelocalizeConfig::default()).unwrap();
-        let estimate = answer
-            .prior_from_query
-            .unwrap_or_else(|| panic!("seed {seed} refused: {:?}", answer.refusal));
-        let (t, r) = transform_error(&estimate, &truth);
+        let accepted = match &answer.outcome {
+            Ok(accepted) => accepted,
+            Err(refusal) => panic!("seed {seed} refused: {refusal}"),
+        };
+        let (t, r) = transform_error(&accepted.prior_from_query, &truth);
         assert!(t < 0.03 && r < 0.3, "seed {seed}: error {t} m, {r} deg");
-        assert!(answer.information.trace() > 0.0);
+        assert!(accepted.information.trace() > 0.0);
     }
 }
 
@@ -40,7 +41,7 @@ fn sessions_of_different_fields_are_refused() {
             !answer.is_accepted(),
             "seed {seed}: accepted a transform between unrelated fields"
         );
-        assert!(answer.refusal.is_some());
+        assert!(answer.refusal().is_some());
     }
 }
 
@@ -80,12 +81,12 @@ fn a_symmetric_grid_is_refused_as_ambiguous() {
     assert!(
         !answer.is_accepted(),
         "accepted {:?}",
-        answer.prior_from_query
+        answer.prior_from_query()
     );
     assert!(
-        matches!(answer.refusal, Some(Refusal::Ambiguous { .. })),
+        matches!(answer.refusal(), Some(Refusal::Ambiguous { .. })),
         "{:?}",
-        answer.refusal
+        answer.refusal()
     );
 }
 
@@ -122,16 +123,17 @@ fn a_tilted_query_is_aligned_with_its_tilt_by_default() {
         assert!(tilted.gravity_aligned);
         let truth = truth * tilt.inverse();
         let answer = relocalize(&prior, &tilted, &RelocalizeConfig::default()).unwrap();
-        let estimate = answer
-            .prior_from_query
-            .unwrap_or_else(|| panic!("seed {seed} refused: {:?}", answer.refusal));
-        let (t, r) = transform_error(&estimate, &truth);
+        let accepted = match &answer.outcome {
+            Ok(accepted) => accepted,
+            Err(refusal) => panic!("seed {seed} refused: {refusal}"),
+        };
+        let (t, r) = transform_error(&accepted.prior_from_query, &truth);
         let best = &answer.diagnostics.hypotheses[0];
         let diag = best.tilt.expect("auto reports its tilt decision");
         assert!(diag.applied, "seed {seed}: {diag:?}");
         assert!(t < 0.02 && r < 0.1, "seed {seed}: error {t} m, {r} deg");
         // the information says the tilt is known, far better than gravity alone (σ 1°)
-        let covariance = answer.information.try_inverse().expect("invertible");
+        let covariance = accepted.information.try_inverse().expect("invertible");
         assert!(covariance[(0, 0)].sqrt().to_degrees() < 0.3, "{covariance}");
 
         let four = RelocalizeConfig {
@@ -139,9 +141,21 @@ fn a_tilted_query_is_aligned_with_its_tilt_by_default() {
             ..RelocalizeConfig::default()
         };
         let answer4 = relocalize(&prior, &tilted, &four).unwrap();
-        if let Some(estimate4) = answer4.prior_from_query {
+        if let Some(estimate4) = answer4.prior_from_query() {
             let (_, r4) = transform_error(&estimate4, &truth);
             assert!(r4 > 3.0 * r, "seed {seed}: 4-DOF {r4} deg vs auto {r} deg");
         }
     }
+}
+
+#[test]
+fn a_query_too_small_is_a_refusal_with_its_code() {
+    let (prior, query, _) = two_sessions(&FieldConfig::default(), 1);
+    let mut tiny = query.clone();
+    tiny.landmarks.truncate(2);
+    let answer = relocalize(&prior, &tiny, &RelocalizeConfig::default()).unwrap();
+    let refusal = answer.refusal().expect("refused");
+    assert_eq!(refusal.code(), "too_few_landmarks");
+    assert!(refusal.to_string().contains("2 landmarks"), "{refusal}");
+    assert_eq!(answer.diagnostics.query_landmarks, 2);
 }

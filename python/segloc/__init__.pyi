@@ -117,6 +117,9 @@ class RelocalizeResult:
     def refusal(self) -> Optional[str]:
         """Why the transform was refused, or None when accepted."""
     @property
+    def refusal_code(self) -> Optional[str]:
+        """The refusal's stable code (e.g. ``too_few_inliers``), or None when accepted."""
+    @property
     def timings_ms(self) -> dict[str, float]:
         """Stage timings, ms."""
     @property

@@ -70,9 +70,8 @@ impl RelocalizeResult {
     #[getter]
     fn prior_from_query<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.inner
-            .prior_from_query
-            .as_ref()
-            .map(|t| isometry_to(py, t))
+            .accepted()
+            .map(|a| isometry_to(py, &a.prior_from_query))
     }
 
     /// The best hypothesis' transform, accepted or not (for diagnosis only); None when
@@ -86,13 +85,14 @@ impl RelocalizeResult {
     /// translation), right perturbation (GTSAM's `Pose3`); zeros when refused.
     #[getter]
     fn information<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        matrix6_to(py, &self.inner.information)
+        let zeros = nalgebra::Matrix6::zeros();
+        matrix6_to(py, self.inner.accepted().map_or(&zeros, |a| &a.information))
     }
 
     /// Inliers of the accepted transform, (K, 2): (prior landmark id, query landmark id).
     #[getter]
     fn inliers<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
-        let pairs = &self.inner.inliers;
+        let pairs = self.inner.accepted().map_or(&[][..], |a| &a.inliers[..]);
         Array2::from_shape_fn((pairs.len(), 2), |(k, c)| {
             if c == 0 {
                 pairs[k].0
@@ -112,7 +112,14 @@ impl RelocalizeResult {
     /// Why the transform was refused (a sentence), or None when accepted.
     #[getter]
     fn refusal(&self) -> Option<String> {
-        self.inner.refusal.as_ref().map(|r| r.to_string())
+        self.inner.refusal().map(|r| r.to_string())
+    }
+
+    /// The refusal's stable code (`too_few_landmarks`, `no_hypothesis`, `too_few_inliers`,
+    /// `residual_too_large`, `degenerate_geometry`, `ambiguous`), or None when accepted.
+    #[getter]
+    fn refusal_code(&self) -> Option<&'static str> {
+        self.inner.refusal().map(|r| r.code())
     }
 
     /// Stage timings in milliseconds: associations_ms, graph_ms, clique_ms, alignment_ms,
@@ -139,13 +146,13 @@ impl RelocalizeResult {
     }
 
     fn __repr__(&self) -> String {
-        match &self.inner.refusal {
-            None => format!(
+        match &self.inner.outcome {
+            Ok(a) => format!(
                 "RelocalizeResult(accepted, {} inliers, rmse {:.2} cm)",
-                self.inner.inliers.len(),
+                a.inliers.len(),
                 self.inner.rmse_m * 100.0
             ),
-            Some(r) => format!("RelocalizeResult(refused: {r})"),
+            Err(r) => format!("RelocalizeResult(refused: {r})"),
         }
     }
 }

@@ -182,7 +182,7 @@ fn summary(
 ) -> serde_json::Value {
     let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
     for a in session.attempts.iter().filter(|a| !a.accepted()) {
-        *reasons.entry(a.status.code()).or_default() += 1;
+        *reasons.entry(a.status.code().to_string()).or_default() += 1;
     }
     let accepted = session.attempts.iter().filter(|a| a.accepted()).count();
     let prior_from_odom = match (frames.last(), session.poses.last(), first_fix) {

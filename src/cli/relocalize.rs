@@ -5,7 +5,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 use segloc::align::Dof;
 use segloc::io::load_map;
-use segloc::relocalize::{result::matrix_rows, Relocalization, RelocalizeConfig, Relocalizer};
+use segloc::relocalize::result::{matrix6_rows, matrix_rows};
+use segloc::relocalize::{Relocalization, RelocalizeConfig, Relocalizer};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -103,7 +104,7 @@ pub fn report(
     let d = &answer.diagnostics;
     let mut out = json!({
         "status": if answer.is_accepted() { "ok" } else { "no_match" },
-        "inliers": answer.inliers.len(),
+        "inliers": answer.accepted().map_or(0, |a| a.inliers.len()),
         "rmse_m": finite_or_null(answer.rmse_m),
         "landmarks": {"prior": d.prior_landmarks, "query": d.query_landmarks},
         "associations": d.associations,
@@ -115,20 +116,17 @@ pub fn report(
         "hypotheses": d.hypotheses,
         "config": config,
     });
-    if let Some(t) = &answer.prior_from_query {
-        out["prior_from_query"] = json!(matrix_rows(t));
-        out["information"] = json!((0..6)
-            .map(|r| (0..6)
-                .map(|c| answer.information[(r, c)])
-                .collect::<Vec<_>>())
-            .collect::<Vec<_>>());
-        out["inlier_pairs"] = json!(answer.inliers);
+    if let Some(accepted) = answer.accepted() {
+        out["prior_from_query"] = json!(matrix_rows(&accepted.prior_from_query));
+        out["information"] = json!(matrix6_rows(&accepted.information));
+        out["inlier_pairs"] = json!(accepted.inliers);
         if let Some(tilt) = d.hypotheses.first().and_then(|h| h.tilt) {
             out["tilt"] = json!(tilt);
         }
     }
-    if let Some(reason) = &answer.refusal {
+    if let Some(reason) = answer.refusal() {
         out["reason"] = json!(reason.to_string());
+        out["reason_code"] = json!(reason.code());
         out["refusal"] = json!(reason);
     }
     out
@@ -153,12 +151,13 @@ fn print_summary(answer: &Relocalization, time_ms: f64) {
         d.dof,
         if d.tilt_aware { ", tilt-aware" } else { "" }
     );
-    match (&answer.prior_from_query, &answer.refusal) {
-        (Some(t), _) => {
+    match &answer.outcome {
+        Ok(accepted) => {
+            let t = &accepted.prior_from_query;
             let yaw = segloc::align::yaw_only::yaw_of(t).to_degrees();
             println!(
                 "ok: {} inliers, rmse {:.2} cm, yaw {:.3}°, translation ({:.3}, {:.3}, {:.3}) m",
-                answer.inliers.len(),
+                accepted.inliers.len(),
                 answer.rmse_m * 100.0,
                 yaw,
                 t.translation.x,
@@ -185,8 +184,7 @@ fn print_summary(answer: &Relocalization, time_ms: f64) {
                 );
             }
         }
-        (None, Some(reason)) => println!("no match: {reason}"),
-        (None, None) => println!("no match"),
+        Err(reason) => println!("no match: {reason}"),
     }
     println!("time: {time_ms:.1} ms");
 }

@@ -35,7 +35,9 @@ pub fn run(args: &FieldArgs, config: &RelocalizeConfig) -> Result<i32> {
     let prior = fuse_detections(&prior_dets, &config.landmarks);
     let query = fuse_detections(&query_dets, &config.landmarks);
     let answer = Relocalizer::new(prior.clone(), config.clone())?.relocalize(&query)?;
-    let errors = answer.prior_from_query.map(|t| transform_error(&t, &truth));
+    let errors = answer
+        .prior_from_query()
+        .map(|t| transform_error(&t, &truth));
     let correct = errors.is_some_and(|(t, r)| t < 0.05 && r < 0.5);
     let time_ms = started.elapsed().as_secs_f64() * 1e3;
     let mut report = super::relocalize::report(&answer, config, time_ms);
@@ -71,16 +73,15 @@ pub fn run(args: &FieldArgs, config: &RelocalizeConfig) -> Result<i32> {
             prior_dets.len(), prior.len(), query_dets.len(), query.len()
         );
         println!("  the query session starts in its own frame: unknown yaw and position");
-        match (&answer.prior_from_query, &answer.refusal) {
-            (Some(_), _) => {
+        match &answer.outcome {
+            Ok(accepted) => {
                 let (t, r) = errors.unwrap_or_default();
                 println!(
                     "  relocalized: {} inliers, rmse {:.2} cm; error against the truth {:.2} cm, {:.3}°",
-                    answer.inliers.len(), answer.rmse_m * 100.0, t * 100.0, r
+                    accepted.inliers.len(), answer.rmse_m * 100.0, t * 100.0, r
                 );
             }
-            (None, Some(reason)) => println!("  refused: {reason}"),
-            (None, None) => println!("  refused"),
+            Err(reason) => println!("  refused: {reason}"),
         }
         println!("  {:.1} ms in all", time_ms);
         if let Some(dir) = &args.out {

@@ -342,7 +342,9 @@ fn run_trial(
     let time_ms = started.elapsed().as_secs_f64() * 1e3;
     match outcome {
         Ok(answer) => {
-            let errors = answer.prior_from_query.map(|t| transform_error(&t, truth));
+            let errors = answer
+                .prior_from_query()
+                .map(|t| transform_error(&t, truth));
             let correct = !options.negatives
                 && errors.is_some_and(|(t, r)| t <= FALSE_ACCEPT_M && r <= FALSE_ACCEPT_DEG);
             Trial {
@@ -355,7 +357,7 @@ fn run_trial(
                     .hypotheses
                     .first()
                     .map_or(0, |h| h.inlier_count),
-                refusal: answer.refusal.map(|r| r.to_string()),
+                refusal: answer.refusal().map(|r| r.to_string()),
                 tilt: answer.diagnostics.hypotheses.first().and_then(|h| h.tilt),
                 query_landmarks: answer.diagnostics.query_landmarks,
                 associations: answer.diagnostics.associations,

@@ -570,7 +570,7 @@ pub fn run_pair(
     let attempts = &r.session.attempts;
     let mut refused = BTreeMap::new();
     for a in attempts.iter().filter(|a| !a.accepted()) {
-        *refused.entry(a.status.code()).or_insert(0) += 1;
+        *refused.entry(a.status.code().to_string()).or_insert(0) += 1;
     }
     let fixes = score_fixes(&r.session, truth);
     Ok(PairRow {

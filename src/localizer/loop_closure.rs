@@ -11,7 +11,7 @@
 use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
 use super::relocalization::accepted_answer;
-use super::report::{AttemptRecord, AttemptStatus, Measurement};
+use super::report::{AttemptRecord, AttemptStatus, Confirmation, Measurement};
 use super::submap::{frame_nearest, landmark_positions};
 use super::trajectory::TrajectoryGraph;
 use super::view_bias::ViewBiasCalibration;
@@ -249,10 +249,11 @@ fn close_loop(
     let mut record = AttemptRecord::pending(t, last, query.len());
     let answer =
         Relocalizer::new(old.clone(), config.relocalize.clone()).and_then(|r| r.relocalize(&query));
-    let Some((reloc, old_from_recent)) = accepted_answer(&mut record, answer) else {
+    let Some(reloc) = accepted_answer(&mut record, answer) else {
         attempts.push(record);
         return None;
     };
+    let old_from_recent = reloc.prior_from_query;
     // the earlier frame nearest the matched landmarks of the old map, and the recent frame
     // nearest the matched landmarks of the submap (least drift relative to them)
     let matched_old = landmark_positions(&old, reloc.inliers.iter().map(|(p, _)| *p));
@@ -262,9 +263,7 @@ fn close_loop(
         .unwrap_or_else(|| frame_nearest(&odometry, reference.frames.clone(), &matched_old));
     let k = frame_nearest(&odometry, recent, &matched_new);
     let j_from_k = odometry[j].inverse() * old_from_recent * odometry[k];
-    record.status = AttemptStatus::Unconfirmed(
-        "not confirmed by the pose graph or the next loop closure".into(),
-    );
+    record.status = AttemptStatus::Unconfirmed(Confirmation::NextLoopClosure);
     record.measurement = Some(Measurement::Closure { j, k, j_from_k });
     let ad = se3::adjoint(&odometry[k]);
     let information =

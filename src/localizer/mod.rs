@@ -49,7 +49,10 @@ pub mod view_bias;
 mod session;
 
 pub use config::{ConfigError, LocalizerConfig};
-pub use report::{AttemptRecord, AttemptStatus, FrameOutput, LocalizerEvent, Measurement};
+pub use report::{
+    AttemptRecord, AttemptRefusal, AttemptStatus, Confirmation, FrameOutput, LocalizerEvent,
+    Measurement,
+};
 pub use segloc_maps::frames::{FrameDetection, FramePath, StreamFrame as FrameInput};
 pub use session::{Localizer, SessionResult, VIEW_BIAS_NOTE};
 

@@ -5,13 +5,13 @@
 
 use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
-use super::report::{AttemptRecord, AttemptStatus, Measurement};
+use super::report::{AttemptRecord, AttemptRefusal, AttemptStatus, Confirmation, Measurement};
 use super::submap::{frame_nearest, landmark_positions};
 use super::trajectory::TrajectoryGraph;
 use super::LocalizerConfig;
 use crate::graph::se3;
 use crate::landmarks::{fuse_detections, FusionConfig};
-use crate::relocalize::{Relocalization, RelocalizeError, Relocalizer};
+use crate::relocalize::{Accepted, Relocalization, RelocalizeError, Relocalizer};
 use nalgebra::{Isometry3, Matrix6};
 
 /// A relocalization the relocalizer accepted, before the gate has confirmed it.
@@ -162,10 +162,12 @@ pub fn attempt(
     let query = fuse_detections(&set, &fusion);
     let mut record = AttemptRecord::pending(log.frames[k].t, k, query.len());
     let answer = relocalizer.relocalize(&query);
-    let Some((reloc, prior_from_odom)) = accepted_answer(&mut record, answer) else {
+    let Some(reloc) = accepted_answer(&mut record, answer) else {
         attempts.push(record);
         return None;
     };
+    // the submap was built in the session's odometry frame
+    let prior_from_odom = reloc.prior_from_query;
     if let Some(reason) = undetermined_yaw(&record, config) {
         record.status = AttemptStatus::Refused(reason);
         attempts.push(record);
@@ -176,9 +178,7 @@ pub fn attempt(
     let k = frame_nearest(&odometry, first..k + 1, &matched);
     let odom_from_rover = odometry[k];
     let prior_from_rover = prior_from_odom * odom_from_rover;
-    record.status = AttemptStatus::Unconfirmed(
-        "not confirmed by the pose graph or the next relocalization".into(),
-    );
+    record.status = AttemptStatus::Unconfirmed(Confirmation::NextRelocalization);
     record.measurement = Some(Measurement::Prior {
         k,
         prior_from_rover,
@@ -198,40 +198,39 @@ pub fn attempt(
 
 /// Why an accepted relocalization cannot be trusted to the degree in yaw (its yaw σ over
 /// the gate's `max_yaw_sigma_deg`), when the gate is on.
-fn undetermined_yaw(record: &AttemptRecord, config: &LocalizerConfig) -> Option<String> {
+fn undetermined_yaw(record: &AttemptRecord, config: &LocalizerConfig) -> Option<AttemptRefusal> {
     let sigma_deg = record.yaw_sigma_deg.unwrap_or(f64::INFINITY);
-    (config.gate.enabled && sigma_deg > config.gate.max_yaw_sigma_deg).then(|| {
-        format!(
-            "yaw undetermined: σ {sigma_deg:.2}° over {:.2}°",
-            config.gate.max_yaw_sigma_deg
-        )
-    })
+    (config.gate.enabled && sigma_deg > config.gate.max_yaw_sigma_deg).then_some(
+        AttemptRefusal::YawUndetermined {
+            sigma_deg,
+            max_deg: config.gate.max_yaw_sigma_deg,
+        },
+    )
 }
 
 /// The relocalizer's answer recorded in `record` (inliers, yaw σ, and the refusal when it
-/// refused or failed); the answer and its `prior_from_query` when it accepted.
+/// refused or failed); the accepted answer when it accepted.
 pub fn accepted_answer(
     record: &mut AttemptRecord,
     answer: Result<Relocalization, RelocalizeError>,
-) -> Option<(Relocalization, Isometry3<f64>)> {
+) -> Option<Accepted> {
     let reloc = match answer {
         Ok(r) => r,
         Err(e) => {
-            record.status = AttemptStatus::Refused(format!("error: {e}"));
+            record.status = AttemptStatus::Refused(AttemptRefusal::Error(e.to_string()));
             return None;
         }
     };
-    record.inliers = reloc.inliers.len();
-    record.yaw_sigma_deg = Some(yaw_sigma_deg(&reloc.information));
-    match reloc.prior_from_query {
-        Some(prior_from_query) => Some((reloc, prior_from_query)),
-        None => {
-            record.status = AttemptStatus::Refused(
-                reloc
-                    .refusal
-                    .as_ref()
-                    .map_or_else(|| "refused".to_string(), |r| r.to_string()),
-            );
+    match reloc.outcome {
+        Ok(accepted) => {
+            record.inliers = accepted.inliers.len();
+            record.yaw_sigma_deg = Some(yaw_sigma_deg(&accepted.information));
+            Some(accepted)
+        }
+        Err(refusal) => {
+            record.inliers = 0;
+            record.yaw_sigma_deg = Some(yaw_sigma_deg(&Matrix6::zeros()));
+            record.status = AttemptStatus::Refused(AttemptRefusal::Relocalizer(refusal));
             None
         }
     }
@@ -364,7 +363,7 @@ mod tests {
         assert_eq!(undetermined_yaw(&record, &config), None);
         record.yaw_sigma_deg = Some(config.gate.max_yaw_sigma_deg * 1.1);
         let reason = undetermined_yaw(&record, &config).unwrap();
-        assert_eq!(AttemptStatus::Refused(reason).code(), "yaw undetermined");
+        assert_eq!(AttemptStatus::Refused(reason).code(), "yaw_undetermined");
         record.yaw_sigma_deg = None;
         assert!(undetermined_yaw(&record, &config).is_some());
     }

@@ -2,35 +2,123 @@
 //! events of a frame, and the summary of a whole drive. Nothing here can carry a true pose:
 //! the caller that knows the truth (the mission, an evaluation) compares it with these.
 
+use crate::relocalize::Refusal;
 use nalgebra::{Isometry3, Matrix6};
 use serde::Serialize;
 
-/// The outcome of one relocalization attempt (or loop closure).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-#[serde(tag = "status", content = "reason", rename_all = "snake_case")]
+/// The outcome of one relocalization attempt (or loop closure). In JSON: `status`
+/// (`accepted`, `refused`, `unconfirmed`), `code` (stable, see [`AttemptStatus::code`]) and
+/// `reason` (a sentence).
+#[derive(Clone, Debug, PartialEq)]
 pub enum AttemptStatus {
     /// The relocalizer accepted and the gate confirmed it: it is in the pose graph.
     Accepted,
-    /// The relocalizer refused (or failed): why.
-    Refused(String),
-    /// The relocalizer accepted but the gate has not confirmed it (yet): why.
-    Unconfirmed(String),
+    /// The relocalizer refused, could not run, or its answer failed the gate's own tests.
+    Refused(AttemptRefusal),
+    /// The relocalizer accepted but the gate has not confirmed it (yet).
+    Unconfirmed(Confirmation),
+}
+
+/// Why an attempt was refused.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AttemptRefusal {
+    /// Not attempted (yet).
+    NotAttempted,
+    /// The relocalizer refused.
+    Relocalizer(Refusal),
+    /// The relocalizer could not run on this input.
+    Error(String),
+    /// The relocalizer accepted, but its yaw σ is over the gate's `max_yaw_sigma_deg`.
+    YawUndetermined {
+        /// The answer's yaw standard deviation, degrees.
+        sigma_deg: f64,
+        /// The gate's limit, degrees.
+        max_deg: f64,
+    },
+}
+
+/// What an accepted but unconfirmed answer waits for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Confirmation {
+    /// The pose graph's prediction or the next relocalization.
+    NextRelocalization,
+    /// The pose graph's prediction or the next loop closure.
+    NextLoopClosure,
 }
 
 impl AttemptStatus {
-    /// A short stable code: `accepted`, `unconfirmed`, or the refusal's first words
-    /// (`too few inliers`, `ambiguous`, …) up to a colon.
-    pub fn code(&self) -> String {
+    /// A short stable code: `accepted`, `unconfirmed`, or the refusal's
+    /// ([`AttemptRefusal::code`]).
+    pub fn code(&self) -> &'static str {
         match self {
-            AttemptStatus::Accepted => "accepted".into(),
-            AttemptStatus::Unconfirmed(_) => "unconfirmed".into(),
-            AttemptStatus::Refused(reason) => reason
-                .split([':', '('])
-                .next()
-                .unwrap_or(reason)
-                .trim()
-                .to_string(),
+            AttemptStatus::Accepted => "accepted",
+            AttemptStatus::Unconfirmed(_) => "unconfirmed",
+            AttemptStatus::Refused(refusal) => refusal.code(),
         }
+    }
+}
+
+impl AttemptRefusal {
+    /// A short stable code: `not_attempted`, `error`, `yaw_undetermined`, or the
+    /// relocalizer's own ([`Refusal::code`]: `too_few_inliers`, `ambiguous`, …).
+    pub fn code(&self) -> &'static str {
+        match self {
+            AttemptRefusal::NotAttempted => "not_attempted",
+            AttemptRefusal::Relocalizer(refusal) => refusal.code(),
+            AttemptRefusal::Error(_) => "error",
+            AttemptRefusal::YawUndetermined { .. } => "yaw_undetermined",
+        }
+    }
+}
+
+impl std::fmt::Display for AttemptRefusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AttemptRefusal::NotAttempted => write!(f, "not attempted"),
+            AttemptRefusal::Relocalizer(refusal) => write!(f, "{refusal}"),
+            AttemptRefusal::Error(message) => write!(f, "error: {message}"),
+            AttemptRefusal::YawUndetermined { sigma_deg, max_deg } => {
+                write!(f, "yaw undetermined: σ {sigma_deg:.2}° over {max_deg:.2}°")
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for Confirmation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let next = match self {
+            Confirmation::NextRelocalization => "relocalization",
+            Confirmation::NextLoopClosure => "loop closure",
+        };
+        write!(f, "not confirmed by the pose graph or the next {next}")
+    }
+}
+
+impl std::fmt::Display for AttemptStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AttemptStatus::Accepted => write!(f, "accepted"),
+            AttemptStatus::Refused(refusal) => write!(f, "{refusal}"),
+            AttemptStatus::Unconfirmed(waiting) => write!(f, "{waiting}"),
+        }
+    }
+}
+
+impl Serialize for AttemptStatus {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let status = match self {
+            AttemptStatus::Accepted => "accepted",
+            AttemptStatus::Refused(_) => "refused",
+            AttemptStatus::Unconfirmed(_) => "unconfirmed",
+        };
+        let mut map = s.serialize_map(Some(3))?;
+        map.serialize_entry("status", status)?;
+        map.serialize_entry("code", self.code())?;
+        if !matches!(self, AttemptStatus::Accepted) {
+            map.serialize_entry("reason", &self.to_string())?;
+        }
+        map.end()
     }
 }
 
@@ -83,7 +171,7 @@ impl AttemptRecord {
             query_landmarks,
             inliers: 0,
             yaw_sigma_deg: None,
-            status: AttemptStatus::Refused("not attempted".into()),
+            status: AttemptStatus::Refused(AttemptRefusal::NotAttempted),
             measurement: None,
         }
     }
@@ -93,12 +181,10 @@ impl AttemptRecord {
         self.status == AttemptStatus::Accepted
     }
 
-    /// Why it did not enter the pose graph (`None` when it did).
-    pub fn refusal(&self) -> Option<&str> {
-        match &self.status {
-            AttemptStatus::Accepted => None,
-            AttemptStatus::Refused(r) | AttemptStatus::Unconfirmed(r) => Some(r),
-        }
+    /// Why it did not enter the pose graph (`None` when it did): the status itself, whose
+    /// `code()` is stable and whose `Display` is a sentence.
+    pub fn refusal(&self) -> Option<&AttemptStatus> {
+        (self.status != AttemptStatus::Accepted).then_some(&self.status)
     }
 }
 

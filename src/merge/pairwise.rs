@@ -79,8 +79,10 @@ pub fn relocalize_pairs(
                 a,
                 b,
                 accepted: answer.is_accepted(),
-                a_from_b: answer.prior_from_query,
-                information: answer.information,
+                a_from_b: answer.prior_from_query(),
+                information: answer
+                    .accepted()
+                    .map_or_else(nalgebra::Matrix6::zeros, |a| a.information),
                 inliers: answer
                     .diagnostics
                     .hypotheses
@@ -96,7 +98,7 @@ pub fn relocalize_pairs(
                     .hypotheses
                     .get(1)
                     .map_or(0, |h| h.inlier_count),
-                reason: answer.refusal.map(|r| r.to_string()),
+                reason: answer.refusal().map(|r| r.to_string()),
                 skipped: false,
                 outvoted: false,
                 time_ms: started.elapsed().as_secs_f64() * 1e3,

@@ -269,7 +269,9 @@ fn log_session(
                     "session {} t={:.0} s: refused ({})",
                     a.session,
                     a.time_s,
-                    a.refusal.as_deref().unwrap_or("no reason")
+                    a.refusal
+                        .as_ref()
+                        .map_or_else(|| "no reason".to_string(), |r| r.to_string())
                 )
             };
             let level = match (a.accepted, a.wrong) {

@@ -6,6 +6,7 @@ use super::maps::MissionMaps;
 use super::stream::{odometry_in_world, rmse_m};
 use super::MissionConfig;
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
+use crate::localizer::AttemptStatus;
 use crate::mapping::pictures::{height_error_png, rock_map_png, trajectory_png, Polyline};
 use crate::mapping::LacScore;
 use crate::sim::session::SessionLog;
@@ -25,8 +26,9 @@ pub struct Attempt {
     pub query_landmarks: usize,
     /// Whether the relocalizer accepted.
     pub accepted: bool,
-    /// Why it refused.
-    pub refusal: Option<String>,
+    /// Why it did not enter the pose graph: in JSON `status`, a stable `code` and the
+    /// `reason` as a sentence.
+    pub refusal: Option<AttemptStatus>,
     /// Inlier associations.
     pub inliers: usize,
     /// Accepted: position error of the relocalized rover pose against the truth, metres.

@@ -142,7 +142,7 @@ pub fn scored_attempt(
 ) -> Attempt {
     let mut attempt = Attempt::pending(session, record.t, record.query_landmarks);
     attempt.accepted = record.accepted();
-    attempt.refusal = record.refusal().map(str::to_string);
+    attempt.refusal = record.refusal().cloned();
     attempt.inliers = record.inliers;
     attempt.yaw_sigma_deg = record.yaw_sigma_deg;
     let truth_of = |k: usize| log.frames.get(k).and_then(|f| log.ticks.get(f.tick));

@@ -12,7 +12,7 @@
 //! let (prior, query, truth) = two_sessions(&FieldConfig::default(), 3);
 //! let relocalizer = Relocalizer::new(prior, RelocalizeConfig::default()).unwrap();
 //! let answer = relocalizer.relocalize(&query).unwrap();
-//! let estimate = answer.prior_from_query.expect("accepted");
+//! let estimate = answer.prior_from_query().expect("accepted");
 //! assert!((estimate.translation.vector - truth.translation.vector).norm() < 0.05);
 //! ```
 
@@ -29,10 +29,11 @@ pub use config::{
     AssociationConfig, CliqueConfig, ConsistencyConfig, RelocalizeConfig, VerificationConfig,
 };
 pub use prepared::{PreparedMap, MIN_LANDMARKS};
-pub use result::{Diagnostics, Hypothesis, Refusal, Relocalization, TiltDiagnostics, Timings};
+pub use result::{
+    Accepted, Diagnostics, Hypothesis, Refusal, Relocalization, TiltDiagnostics, Timings,
+};
 
 use crate::align::{information_matrix, tilt_aware_information, Dof};
-use nalgebra::Matrix6;
 use segloc_clipper::{ClipperError, ConsistencyGraph};
 use segloc_maps::{MapError, ObjectMap};
 use std::time::Instant;
@@ -107,7 +108,15 @@ impl Relocalizer {
     pub fn relocalize(&self, query: &ObjectMap) -> Result<Relocalization, RelocalizeError> {
         let started = Instant::now();
         let config = &self.config;
-        let (prior, query) = (&self.prior, PreparedMap::new(query, "query")?);
+        let prior = &self.prior;
+        let query = match PreparedMap::new(query, "query") {
+            Err(RelocalizeError::TooFewLandmarks {
+                count, required, ..
+            }) => {
+                return Ok(self.too_few_landmarks(count, required, started));
+            }
+            prepared => prepared?,
+        };
         let dof = self.motion_model(&query)?;
         let mut timings = Timings::default();
 
@@ -131,53 +140,23 @@ impl Relocalizer {
         timings.alignment_ms = found.alignment_ms;
         let mut hypotheses = found.hypotheses;
 
-        // Hypotheses → verification.
-        let decision = if hypotheses.is_empty() {
-            Err(Refusal::NoHypothesis {
-                largest_clique: found.largest_clique,
-                required: config.clique.min_clique,
-            })
-        } else {
-            verify::decide(&mut hypotheses, &config.verification)
+        // Hypotheses → verification → the accepted transform with its information.
+        let no_hypothesis = Refusal::NoHypothesis {
+            largest_clique: found.largest_clique,
+            required: config.clique.min_clique,
         };
-
-        // Result, with the information matrix of the accepted transform.
-        let best = hypotheses.first();
-        let (prior_from_query, information, inliers) = match (&decision, best) {
-            (Ok(()), Some(best)) => {
-                let pairs: Vec<_> = best
-                    .inliers
-                    .iter()
-                    .map(|&(i, j)| {
-                        let a = segloc_clipper::Association { prior: i, query: j };
-                        hypotheses::pair_of(&a, prior, &query)
-                    })
-                    .collect();
-                let ids = best
-                    .inliers
-                    .iter()
-                    .map(|&(i, j)| (prior.ids[i as usize], query.ids[j as usize]))
-                    .collect();
-                let info = match best.tilt {
-                    Some(tilt) if dof == Dof::Auto => tilt_aware_information(
-                        &pairs,
-                        &best.prior_from_query,
-                        tilt.determined,
-                        config.refine.tilt.gravity_sigma_deg.to_radians(),
-                    ),
-                    _ => information_matrix(&pairs, &best.prior_from_query),
-                };
-                (Some(best.prior_from_query), info, ids)
-            }
-            _ => (None, Matrix6::zeros(), Vec::new()),
+        let outcome = if hypotheses.is_empty() {
+            Err(no_hypothesis)
+        } else {
+            verify::decide(&mut hypotheses, &config.verification).and_then(|()| {
+                let best = hypotheses.first().ok_or(no_hypothesis)?;
+                Ok(accept(best, prior, &query, dof, config))
+            })
         };
         timings.total_ms = ms_since(started);
         Ok(Relocalization {
-            prior_from_query,
-            refusal: decision.err(),
-            inliers,
-            rmse_m: best.map_or(f64::NAN, |b| b.rmse_m),
-            information,
+            outcome,
+            rmse_m: hypotheses.first().map_or(f64::NAN, |b| b.rmse_m),
             diagnostics: Diagnostics {
                 prior_landmarks: prior.len(),
                 query_landmarks: query.len(),
@@ -189,6 +168,26 @@ impl Relocalizer {
                 timings,
             },
         })
+    }
+
+    /// The refusal of a query map too small to fix a transform.
+    fn too_few_landmarks(&self, count: usize, required: usize, started: Instant) -> Relocalization {
+        Relocalization {
+            outcome: Err(Refusal::TooFewLandmarks {
+                landmarks: count,
+                required,
+            }),
+            rmse_m: f64::NAN,
+            diagnostics: Diagnostics {
+                prior_landmarks: self.prior.len(),
+                query_landmarks: count,
+                timings: Timings {
+                    total_ms: ms_since(started),
+                    ..Timings::default()
+                },
+                ..Diagnostics::default()
+            },
+        }
     }
 
     /// The motion model: the configured one, else `gravity_aligned_dof` (by default `auto`:
@@ -214,6 +213,44 @@ impl Relocalizer {
             }
             None => Ok(Dof::Six),
         }
+    }
+}
+
+/// The accepted answer of the best hypothesis: its transform, its inliers by landmark id
+/// and the information matrix of the transform (tilt-aware for the motion model `auto`).
+fn accept(
+    best: &Hypothesis,
+    prior: &PreparedMap,
+    query: &PreparedMap,
+    dof: Dof,
+    config: &RelocalizeConfig,
+) -> Accepted {
+    let pairs: Vec<_> = best
+        .inliers
+        .iter()
+        .map(|&(i, j)| {
+            let a = segloc_clipper::Association { prior: i, query: j };
+            hypotheses::pair_of(&a, prior, query)
+        })
+        .collect();
+    let inliers = best
+        .inliers
+        .iter()
+        .map(|&(i, j)| (prior.ids[i as usize], query.ids[j as usize]))
+        .collect();
+    let information = match best.tilt {
+        Some(tilt) if dof == Dof::Auto => tilt_aware_information(
+            &pairs,
+            &best.prior_from_query,
+            tilt.determined,
+            config.refine.tilt.gravity_sigma_deg.to_radians(),
+        ),
+        _ => information_matrix(&pairs, &best.prior_from_query),
+    };
+    Accepted {
+        prior_from_query: best.prior_from_query,
+        inliers,
+        information,
     }
 }
 

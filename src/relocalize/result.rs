@@ -8,6 +8,13 @@ use serde::Serialize;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Refusal {
+    /// The query map has too few landmarks to fix a transform.
+    TooFewLandmarks {
+        /// Landmarks in the query map.
+        landmarks: usize,
+        /// The minimum.
+        required: usize,
+    },
     /// The consistency graph held no clique large enough to be a hypothesis.
     NoHypothesis {
         /// Size of the largest clique found.
@@ -45,9 +52,29 @@ pub enum Refusal {
     },
 }
 
+impl Refusal {
+    /// A stable machine-readable code, the same as the JSON's `kind`
+    /// (`too_few_landmarks`, `no_hypothesis`, `too_few_inliers`, `residual_too_large`,
+    /// `degenerate_geometry`, `ambiguous`).
+    pub fn code(&self) -> &'static str {
+        match self {
+            Refusal::TooFewLandmarks { .. } => "too_few_landmarks",
+            Refusal::NoHypothesis { .. } => "no_hypothesis",
+            Refusal::TooFewInliers { .. } => "too_few_inliers",
+            Refusal::ResidualTooLarge { .. } => "residual_too_large",
+            Refusal::DegenerateGeometry { .. } => "degenerate_geometry",
+            Refusal::Ambiguous { .. } => "ambiguous",
+        }
+    }
+}
+
 impl std::fmt::Display for Refusal {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
+            Refusal::TooFewLandmarks { landmarks, required } => write!(
+                f,
+                "query map has {landmarks} landmarks; relocalization needs at least {required}"
+            ),
             Refusal::NoHypothesis { largest_clique, required } => write!(
                 f,
                 "no consistent set of associations: largest clique {largest_clique}, need {required}"
@@ -161,22 +188,37 @@ pub struct Diagnostics {
     pub timings: Timings,
 }
 
-/// The answer of one relocalization.
-#[derive(Clone, Debug, Serialize)]
-pub struct Relocalization {
-    /// The accepted transform, or `None` when refused.
-    #[serde(serialize_with = "serialize_option_isometry")]
-    pub prior_from_query: Option<Isometry3<f64>>,
-    /// Why it was refused, when it was.
-    pub refusal: Option<Refusal>,
-    /// Inliers (prior landmark id, query landmark id) of the accepted transform.
+/// An accepted relocalization: the transform and its evidence.
+#[derive(Clone, Debug)]
+pub struct Accepted {
+    /// The transform taking query-map coordinates into the prior map's frame.
+    pub prior_from_query: Isometry3<f64>,
+    /// Inliers (prior landmark id, query landmark id).
     pub inliers: Vec<(u32, u32)>,
-    /// Root-mean-square residual (m) over the inliers of the best hypothesis.
-    pub rmse_m: f64,
     /// 6 × 6 information matrix of `prior_from_query` for the pose graph, tangent ordered
     /// (rotation, translation), right perturbation (GTSAM's `Pose3` convention).
-    #[serde(serialize_with = "serialize_matrix6")]
     pub information: Matrix6<f64>,
+}
+
+/// The answer of one relocalization: accepted with its evidence, or refused with the
+/// reason, and in both cases the diagnostics.
+///
+/// ```
+/// # use segloc::relocalize::{Relocalization, Refusal};
+/// # fn report(answer: &Relocalization) {
+/// match &answer.outcome {
+///     Ok(accepted) => println!("{} inliers", accepted.inliers.len()),
+///     Err(refusal) => println!("refused ({}): {refusal}", refusal.code()),
+/// }
+/// # }
+/// ```
+#[derive(Clone, Debug)]
+pub struct Relocalization {
+    /// The accepted transform, or why it was refused.
+    pub outcome: Result<Accepted, Refusal>,
+    /// Root-mean-square residual (m) over the inliers of the best hypothesis (accepted or
+    /// not; NaN without a hypothesis).
+    pub rmse_m: f64,
     /// Diagnostics.
     pub diagnostics: Diagnostics,
 }
@@ -184,7 +226,22 @@ pub struct Relocalization {
 impl Relocalization {
     /// Whether the transform was accepted.
     pub fn is_accepted(&self) -> bool {
-        self.prior_from_query.is_some()
+        self.outcome.is_ok()
+    }
+
+    /// The accepted answer, if any.
+    pub fn accepted(&self) -> Option<&Accepted> {
+        self.outcome.as_ref().ok()
+    }
+
+    /// The accepted transform, if any.
+    pub fn prior_from_query(&self) -> Option<Isometry3<f64>> {
+        self.accepted().map(|a| a.prior_from_query)
+    }
+
+    /// Why it was refused, if it was.
+    pub fn refusal(&self) -> Option<&Refusal> {
+        self.outcome.as_ref().err()
     }
 
     /// The best hypothesis' transform, accepted or not (useful for diagnosis only).
@@ -193,6 +250,28 @@ impl Relocalization {
             .hypotheses
             .first()
             .map(|h| h.prior_from_query)
+    }
+}
+
+impl Serialize for Relocalization {
+    /// The flat JSON shape: `prior_from_query` (4 × 4 or null), `refusal` (an object with
+    /// its `kind`, or null), `inliers`, `rmse_m`, `information` (zeros when refused),
+    /// `diagnostics`.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let accepted = self.accepted();
+        let mut out = s.serialize_struct("Relocalization", 6)?;
+        out.serialize_field(
+            "prior_from_query",
+            &accepted.map(|a| matrix_rows(&a.prior_from_query)),
+        )?;
+        out.serialize_field("refusal", &self.refusal())?;
+        out.serialize_field("inliers", &accepted.map_or(&[][..], |a| &a.inliers[..]))?;
+        out.serialize_field("rmse_m", &self.rmse_m)?;
+        let information = accepted.map_or_else(Matrix6::zeros, |a| a.information);
+        out.serialize_field("information", &matrix6_rows(&information))?;
+        out.serialize_field("diagnostics", &self.diagnostics)?;
+        out.end()
     }
 }
 
@@ -219,9 +298,13 @@ pub(crate) fn serialize_option_isometry<S: serde::Serializer>(
     t.as_ref().map(matrix_rows).serialize(s)
 }
 
-fn serialize_matrix6<S: serde::Serializer>(m: &Matrix6<f64>, s: S) -> Result<S::Ok, S::Error> {
-    let rows: Vec<Vec<f64>> = (0..6)
-        .map(|r| (0..6).map(|c| m[(r, c)]).collect())
-        .collect();
-    rows.serialize(s)
+/// A 6 × 6 matrix as nested rows.
+pub fn matrix6_rows(m: &Matrix6<f64>) -> [[f64; 6]; 6] {
+    let mut rows = [[0.0; 6]; 6];
+    for (r, row) in rows.iter_mut().enumerate() {
+        for (c, value) in row.iter_mut().enumerate() {
+            *value = m[(r, c)];
+        }
+    }
+    rows
 }
