@@ -88,13 +88,13 @@ pub fn generate_hypotheses(
         .collect();
     let (rest, to_rest) = rest.induced_subgraph(&core_keep);
     let to_original: Vec<u32> = to_rest.iter().map(|&v| rest_to_graph[v as usize]).collect();
-    let search = super::seeded::SeededSearch {
+    let search = segloc_clipper::SeededSearch {
         max_samples: config.clique.seeded_samples,
         miss_probability: 1e-3,
         seed: config.clique.seed ^ 0x5eed,
         min_size,
     };
-    let rivals = super::seeded::edge_seeded_cliques(&rest, &search, config.clique.hypotheses - 1);
+    let rivals = segloc_clipper::edge_seeded_cliques(&rest, &search, config.clique.hypotheses - 1);
     set.clique_ms += ms_since(started);
     for rival in rivals
         .into_iter()
@@ -188,7 +188,7 @@ pub fn pair_of(a: &Association, prior: &PreparedMap, query: &PreparedMap) -> Wei
 
 /// The largest clique the solvers find, as sorted vertex indices of `graph`.
 ///
-/// The edge-seeded search ([`super::seeded`]) runs first; its clique is a lower bound, so
+/// The edge-seeded search ([`segloc_clipper::edge_seeded_clique`]) runs first; its clique is a lower bound, so
 /// only vertices whose core number reaches it can be in a larger clique. The graph pruned
 /// to them is usually tiny and searched exactly (which certifies the answer); when it is
 /// too large for that and the seeded search found nothing worth a hypothesis, the
@@ -198,13 +198,13 @@ fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig, relax: bool
         max_vertices: config.clique.exact_max_vertices,
         max_nodes: config.clique.exact_max_nodes,
     };
-    let search = super::seeded::SeededSearch {
+    let search = segloc_clipper::SeededSearch {
         max_samples: config.clique.seeded_samples,
         miss_probability: 1e-3,
         seed: config.clique.seed,
         min_size: config.clique.min_clique,
     };
-    let mut best = super::seeded::edge_seeded_clique(graph, &search);
+    let mut best = segloc_clipper::edge_seeded_clique(graph, &search);
     let lower_bound = best.len() as u32;
     let keep: Vec<bool> = core_numbers(graph)
         .iter()

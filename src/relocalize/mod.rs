@@ -22,7 +22,6 @@ pub mod consistency;
 pub mod hypotheses;
 pub mod prepared;
 pub mod result;
-pub mod seeded;
 pub mod verify;
 
 pub use config::{

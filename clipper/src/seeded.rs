@@ -13,9 +13,9 @@
 //! keeps the largest. With k clique members among E edges, s samples miss every one of
 //! the k(k−1)/2 clique edges with probability (1 − k(k−1)/2E)^s.
 
+use crate::ConsistencyGraph;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use segloc_clipper::ConsistencyGraph;
 
 /// Sampling parameters of [`edge_seeded_clique`].
 #[derive(Clone, Copy, Debug)]
