@@ -14,6 +14,7 @@
 
 pub mod align;
 pub mod eval;
+pub mod field_error;
 pub mod font;
 pub mod graph;
 pub mod io;
