@@ -11,6 +11,7 @@
 //! - [`eval`]: evaluation on the real LunarLoc traverses;
 //! - [`sim`]: generated boulder fields for tests and the demo.
 #![warn(missing_docs)]
+#![warn(clippy::too_many_lines)]
 
 pub mod align;
 pub mod eval;

@@ -20,6 +20,7 @@
 //! Every reader returns a [`MapError`] naming the file (and line) on bad input; every writer
 //! is atomic (temporary file in the same directory, then rename).
 #![warn(missing_docs)]
+#![warn(clippy::too_many_lines)]
 
 pub mod atomic;
 pub mod detections;
