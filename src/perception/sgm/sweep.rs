@@ -259,8 +259,8 @@ fn column_costs<'c, L: Lane>(
             cl, max_cost, keep, ..
         } => {
             let l = [cl[x], cl[w + x], cl[2 * w + x]];
-            if L::of_bytes(&keep[cells.clone()]).is_some() {
-                // `of_bytes_mut` is `Some` exactly when `of_bytes` is
+            if L::of_bytes(&[]).is_some() {
+                // the lanes are bytes (`of_bytes_mut` is `Some` exactly when `of_bytes` is)
                 let kept = L::of_bytes_mut(&mut keep[cells]).unwrap_or_default();
                 fill_costs(kept, l, planes, x, *max_cost);
                 kept
