@@ -5,6 +5,7 @@
 //! come with a 6 × 6 information matrix, ready to become a factor in the pose graph.
 //!
 //! Run with `cargo run --release --example loop_closure`.
+#![warn(clippy::too_many_lines)]
 
 use segloc::eval::transform_error;
 use segloc::landmarks::{fuse_detections, FusionConfig};

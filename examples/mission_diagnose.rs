@@ -8,9 +8,12 @@
 //! On stderr, when set: `NAV=1` where each session's time went (seconds per navigator mode,
 //! a trace every second of a mode change), `COLLISIONS=1` the 20 s before every collision,
 //! `ROCKS_NEAR=x,y,r` the true rocks within r of (x, y), `DUMP_Z=1` every frame's pose error.
+#![warn(clippy::too_many_lines)]
 
 use nalgebra::Isometry3;
 use segloc::mapping::{score, HeightMapBuilder};
+use segloc::mission::lost_session::LocalizedSession;
+use segloc::mission::mapping_session::MappedSession;
 use segloc::mission::{lost_session, mapping_session, maps, MissionConfig, Silent};
 use segloc::sim::moon::Moon;
 use segloc::sim::session::SessionLog;
@@ -86,20 +89,84 @@ fn tilt_deg(log: &SessionLog, poses: &[Isometry3<f64>]) -> f64 {
     (s / truth.len().max(1) as f64).sqrt()
 }
 
+type Poses<'a> = (&'a SessionLog, &'a [Isometry3<f64>]);
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let seed: u64 = args.get(1).map_or(Ok(1), |s| s.parse())?;
+    let config = read_config(&args)?;
+    let moon = Moon::generate(&config.moon, seed)?;
+    let Sessions {
+        config,
+        s1,
+        s2,
+        rmse_graph,
+    } = run_sessions(&moon, config, seed)?;
+    if std::env::var("DUMP_Z").is_ok() {
+        dump_z(&[(&s1.log, &s1.poses), (&s2.log, &s2.poses)]);
+    }
+    if std::env::var("NAV").is_ok() {
+        print_navigation(&[&s1.log, &s2.log]);
+    }
+    if let Ok(at) = std::env::var("ROCKS_NEAR") {
+        print_rocks_near(&moon, &at);
+    }
+    if std::env::var("COLLISIONS").is_ok() {
+        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
+            print_collisions(&moon, n, log, &s1);
+        }
+    }
+    let mut out = score_maps(&moon, &config, [(&s1.log, &s1.poses), (&s2.log, &s2.poses)])?;
+    out["seed"] = seed.into();
+    out["view_bias_size_fraction"] = config.localizer.fusion.view_bias_size_fraction.into();
+    out["rmse"] = serde_json::json!([
+        segloc::mission::stream::rmse_m(&s1.log, &s1.poses),
+        segloc::mission::stream::rmse_m(&s2.log, &s2.poses)
+    ]);
+    out["rmse_xy_z_graph"] = serde_json::json!(rmse_graph);
+    out["tilt_deg"] =
+        serde_json::json!([tilt_deg(&s1.log, &s1.poses), tilt_deg(&s2.log, &s2.poses)]);
+    out["rmse_xy_z"] =
+        serde_json::json!([rmse_xy_z(&s1.log, &s1.poses), rmse_xy_z(&s2.log, &s2.poses)]);
+    out["dist"] = serde_json::json!([s1.log.distance_m(), s2.log.distance_m()]);
+    out["collisions"] =
+        serde_json::json!([s1.log.summary().collisions, s2.log.summary().collisions]);
+    println!("{out}");
+    Ok(())
+}
+
+/// The mission configuration: `--config FILE`, `--coverage` or the default.
+fn read_config(args: &[String]) -> Result<MissionConfig, Box<dyn std::error::Error>> {
     let config_file = args
         .iter()
         .position(|a| a == "--config")
         .map(|k| args.get(k + 1));
-    let config = match config_file {
+    Ok(match config_file {
         Some(Some(path)) => toml::from_str(&std::fs::read_to_string(path)?)?,
         Some(None) => return Err("--config needs a file".into()),
         None if args.iter().any(|a| a == "--coverage") => MissionConfig::lac_coverage(),
         None => MissionConfig::default(),
-    };
-    let moon = Moon::generate(&config.moon, seed)?;
+    })
+}
+
+/// The mission's two sessions, as the mission runs them.
+struct Sessions {
+    /// The configuration calibrated by session 1.
+    config: MissionConfig,
+    /// The mapping session, terrain-height correction applied.
+    s1: MappedSession,
+    /// The lost session, terrain-height correction applied.
+    s2: LocalizedSession,
+    /// Horizontal and vertical RMS errors of each session's graph poses before the
+    /// correction, metres.
+    rmse_graph: [[f64; 2]; 2],
+}
+
+fn run_sessions(
+    moon: &Moon,
+    config: MissionConfig,
+    seed: u64,
+) -> Result<Sessions, Box<dyn std::error::Error>> {
     let min_rock = config.session.collision_min_rock_radius_m;
     let clear = |s: [f64; 3]| {
         let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
@@ -108,10 +175,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (start_1, start_2) = (clear(config.start_1), clear(config.start_2));
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
-    let s1 = mapping_session::map_session(&moon, &config, start_1, seed * 2, &Silent)?;
+    let s1 = mapping_session::map_session(moon, &config, start_1, seed * 2, &Silent)?;
     let config = s1.calibrated(&config);
     let s2 = lost_session::localize_session(
-        &moon,
+        moon,
         &config,
         &s1.map,
         (start_2, guess_2),
@@ -126,192 +193,228 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     s1.poses = segloc::mission::terrain_height::apply(&s1.poses, &dz[0]);
     s2.poses = segloc::mission::terrain_height::apply(&s2.poses, &dz[1]);
-    if std::env::var("DUMP_Z").is_ok() {
-        for (log, poses) in [(&s1.log, &s1.poses), (&s2.log, &s2.poses)] {
-            let t = true_poses(log);
-            for (k, (a, b)) in t.iter().zip(poses.iter()).enumerate() {
-                eprintln!(
-                    "{k} {:.4} {:.4} {:.4} {:.2} {:.2}",
-                    b.translation.z - a.translation.z,
-                    b.translation.x - a.translation.x,
-                    b.translation.y - a.translation.y,
-                    a.translation.x,
-                    a.translation.y
-                );
-            }
-        }
-    }
-    if std::env::var("NAV").is_ok() {
-        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
+    Ok(Sessions {
+        config,
+        s1,
+        s2,
+        rmse_graph,
+    })
+}
+
+/// `DUMP_Z`: every frame's pose error (z, x, y) and true position.
+fn dump_z(sessions: &[Poses<'_>]) {
+    for (log, poses) in sessions {
+        let t = true_poses(log);
+        for (k, (a, b)) in t.iter().zip(poses.iter()).enumerate() {
             eprintln!(
-                "session {n} (reached, skipped, backups) {:?}",
-                log.navigation_counts
+                "{k} {:.4} {:.4} {:.4} {:.2} {:.2}",
+                b.translation.z - a.translation.z,
+                b.translation.x - a.translation.x,
+                b.translation.y - a.translation.y,
+                a.translation.x,
+                a.translation.y
             );
-            // seconds in each mode, and driving at a reduced speed
-            let mut modes = std::collections::BTreeMap::new();
-            for t in &log.ticks {
-                let slow = t.command.speed_mps > 0.0 && t.command.speed_mps < 0.4;
-                *modes
-                    .entry(format!("{:?}{}", t.mode, if slow { " slow" } else { "" }))
-                    .or_insert(0.0) += 0.05;
-            }
-            eprintln!("session {n} seconds by mode {modes:?}");
-            let mut last = None;
-            for t in log.ticks.iter().step_by(20) {
-                if last != Some(t.mode) || t.time_s % 20.0 < 1e-9 {
-                    let p = t.world_from_rover.translation;
-                    eprintln!(
-                        "  {n} t {:.0} {:?} at ({:.1}, {:.1}) cmd {:.2} {:.2}",
-                        t.time_s, t.mode, p.x, p.y, t.command.speed_mps, t.command.yaw_rate_rps
-                    );
-                    last = Some(t.mode);
-                }
-            }
         }
     }
-    if let Ok(at) = std::env::var("ROCKS_NEAR") {
-        let v: Vec<f64> = at.split(',').filter_map(|x| x.parse().ok()).collect();
-        if let [x, y, r] = v[..] {
-            for (i, rock) in moon.rocks().iter().enumerate() {
-                let d = (rock.center.x - x).hypot(rock.center.y - y);
-                if d < r {
-                    eprintln!(
-                        "rock {i} at ({:.2}, {:.2}) r {:.3} dist {:.2}",
-                        rock.center.x, rock.center.y, rock.radius_m, d
-                    );
-                }
-            }
+}
+
+/// `NAV`: where each session's time went (seconds per navigator mode) and a trace every
+/// second of a mode change.
+fn print_navigation(logs: &[&SessionLog]) {
+    for (n, log) in (1..).zip(logs) {
+        eprintln!(
+            "session {n} (reached, skipped, backups) {:?}",
+            log.navigation_counts
+        );
+        // seconds in each mode, and driving at a reduced speed
+        let mut modes = std::collections::BTreeMap::new();
+        for t in &log.ticks {
+            let slow = t.command.speed_mps > 0.0 && t.command.speed_mps < 0.4;
+            *modes
+                .entry(format!("{:?}{}", t.mode, if slow { " slow" } else { "" }))
+                .or_insert(0.0) += 0.05;
         }
-    }
-    if std::env::var("COLLISIONS").is_ok() {
-        for (n, log) in [(1, &s1.log), (2, &s2.log)] {
-            let mut last = None;
-            for t in log.collision_ticks() {
-                let Some(segloc::sim::session::Obstruction::Rock(i)) = t.collision else {
-                    eprintln!("session {n} t {:.1} lander", t.time_s);
-                    continue;
-                };
-                if last == Some(i) {
-                    continue;
-                }
-                last = Some(i);
-                let rock = &moon.rocks()[i];
-                let ground = moon.height_at(rock.center.x, rock.center.y);
-                let seen: Vec<String> = log
-                    .frames
-                    .iter()
-                    .filter(|f| f.time_s <= t.time_s)
-                    .flat_map(|f| f.boulders.iter().map(move |b| (f, b)))
-                    .filter(|(_, b)| b.rock == Some(i))
-                    .map(|(f, b)| {
-                        format!(
-                            "{:.0}s r{:.3} d{:.1}",
-                            f.time_s,
-                            b.radius_m,
-                            b.p_rover.coords.norm()
-                        )
-                    })
-                    .collect();
-                let s1_seen = s1
-                    .log
-                    .frames
-                    .iter()
-                    .flat_map(|f| f.boulders.iter())
-                    .filter(|b| b.rock == Some(i))
-                    .count();
-                let in_map = s1
-                    .map
-                    .landmarks
-                    .iter()
-                    .filter(|l| {
-                        (l.position.x - rock.center.x).hypot(l.position.y - rock.center.y) < 0.2
-                    })
-                    .map(|l| format!("obs {} size {:?}", l.observations, l.size_m))
-                    .collect::<Vec<_>>();
-                eprintln!("  session 1 detections of it: {s1_seen}, in its map: {in_map:?}");
+        eprintln!("session {n} seconds by mode {modes:?}");
+        let mut last = None;
+        for t in log.ticks.iter().step_by(20) {
+            if last != Some(t.mode) || t.time_s % 20.0 < 1e-9 {
+                let p = t.world_from_rover.translation;
                 eprintln!(
-                    "session {n} t {:.1} rock {i} r {:.3} top above ground {:.3} mode {:?} seen {:?}",
-                    t.time_s, rock.radius_m, rock.center.z + rock.radius_m - ground, t.mode, seen
+                    "  {n} t {:.0} {:?} at ({:.1}, {:.1}) cmd {:.2} {:.2}",
+                    t.time_s, t.mode, p.x, p.y, t.command.speed_mps, t.command.yaw_rate_rps
                 );
-                // the 20 s before the hit, once a second: where the rock was relative to
-                // the rover (true poses), whether a camera saw it and what the rover did
-                for f in log
-                    .frames
-                    .iter()
-                    .filter(|f| f.time_s <= t.time_s && f.time_s >= t.time_s - 20.0)
-                {
-                    let tick = &log.ticks[f.tick];
-                    let q = tick.world_from_rover.inverse() * rock.center;
-                    let det: Vec<String> = f
-                        .boulders
-                        .iter()
-                        .filter(|b| b.rock == Some(i))
-                        .map(|b| format!("{:?} r{:.3}", b.camera, b.radius_m))
-                        .collect();
-                    // the front camera's line of sight to the rock's upper face
-                    let cam = tick.world_from_rover
-                        * segloc::sim::sensors::cameras()[0].rover_from_camera;
-                    let origin = nalgebra::Point3::from(cam.translation.vector);
-                    let target =
-                        rock.center + nalgebra::Vector3::new(0.0, 0.0, 0.5 * rock.radius_m);
-                    let to = target - origin;
-                    let ray = moon
-                        .cast_ray(&origin, &(to / to.norm()), to.norm() + rock.radius_m, None)
-                        .map(|h| {
-                            format!("{:?} at {:.2} of {:.2}", h.target, h.distance_m, to.norm())
-                        });
-                    let uv = segloc::sim::sensors::project(&(cam.inverse() * rock.center).coords)
-                        .map(|(u, v)| format!("u {u:.0} v {v:.0}"));
-                    eprintln!("      front ray {ray:?} centre px {uv:?}");
-                    eprintln!(
-                        "    t {:.0} rock at range {:.2} bearing {:.0} deg, mode {:?} cmd {:.2} {:.2} detected {:?}",
-                        f.time_s,
-                        q.x.hypot(q.y),
-                        q.y.atan2(q.x).to_degrees(),
-                        tick.mode,
-                        tick.command.speed_mps,
-                        tick.command.yaw_rate_rps,
-                        det
-                    );
-                }
+                last = Some(t.mode);
             }
         }
     }
-    let truth = moon.ground_truth_grid();
-    let t1 = true_poses(&s1.log);
-    let t2 = true_poses(&s2.log);
-    let est: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &s1.poses), (&s2.log, &s2.poses)];
-    let tru: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &t1), (&s2.log, &t2)];
-    let secs: f64 = config.session_seconds().iter().sum();
-    let m_est = maps::build_maps(&est, &truth, secs, &config)?;
-    let m_tru = maps::build_maps(&tru, &truth, secs, &config)?;
-    // one session on its true poses, the other on its estimate: whose error costs the points
-    let s1_true: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &t1), (&s2.log, &s2.poses)];
-    let s2_true: [(&SessionLog, &[Isometry3<f64>]); 2] = [(&s1.log, &s1.poses), (&s2.log, &t2)];
-    let m_s1_true = maps::build_maps(&s1_true, &truth, secs, &config)?;
-    let m_s2_true = maps::build_maps(&s2_true, &truth, secs, &config)?;
-    // the optimised poses with the true height: how much of the loss is z
-    let with_true_z = |log: &SessionLog, poses: &[Isometry3<f64>]| -> Vec<Isometry3<f64>> {
-        true_poses(log)
+}
+
+/// `ROCKS_NEAR=x,y,r`: the true rocks within r of (x, y).
+fn print_rocks_near(moon: &Moon, at: &str) {
+    let v: Vec<f64> = at.split(',').filter_map(|x| x.parse().ok()).collect();
+    if let [x, y, r] = v[..] {
+        for (i, rock) in moon.rocks().iter().enumerate() {
+            let d = (rock.center.x - x).hypot(rock.center.y - y);
+            if d < r {
+                eprintln!(
+                    "rock {i} at ({:.2}, {:.2}) r {:.3} dist {:.2}",
+                    rock.center.x, rock.center.y, rock.radius_m, d
+                );
+            }
+        }
+    }
+}
+
+/// `COLLISIONS`: each collision of session `n` with a rock (once per rock in a row), with
+/// the rock's detections and the 20 s before the hit.
+fn print_collisions(moon: &Moon, n: usize, log: &SessionLog, s1: &MappedSession) {
+    let mut last = None;
+    for t in log.collision_ticks() {
+        let Some(segloc::sim::session::Obstruction::Rock(i)) = t.collision else {
+            eprintln!("session {n} t {:.1} lander", t.time_s);
+            continue;
+        };
+        if last == Some(i) {
+            continue;
+        }
+        last = Some(i);
+        let rock = &moon.rocks()[i];
+        let ground = moon.height_at(rock.center.x, rock.center.y);
+        let seen: Vec<String> = log
+            .frames
             .iter()
-            .zip(poses)
-            .map(|(t, e)| {
-                let mut p = *e;
-                p.translation.vector.z = t.translation.vector.z;
-                p
+            .filter(|f| f.time_s <= t.time_s)
+            .flat_map(|f| f.boulders.iter().map(move |b| (f, b)))
+            .filter(|(_, b)| b.rock == Some(i))
+            .map(|(f, b)| {
+                format!(
+                    "{:.0}s r{:.3} d{:.1}",
+                    f.time_s,
+                    b.radius_m,
+                    b.p_rover.coords.norm()
+                )
             })
-            .collect()
-    };
-    let (z1, z2) = (
-        with_true_z(&s1.log, &s1.poses),
-        with_true_z(&s2.log, &s2.poses),
-    );
-    let m_z = maps::build_maps(&[(&s1.log, &z1), (&s2.log, &z2)], &truth, secs, &config)?;
+            .collect();
+        let s1_seen = s1
+            .log
+            .frames
+            .iter()
+            .flat_map(|f| f.boulders.iter())
+            .filter(|b| b.rock == Some(i))
+            .count();
+        let in_map = s1
+            .map
+            .landmarks
+            .iter()
+            .filter(|l| (l.position.x - rock.center.x).hypot(l.position.y - rock.center.y) < 0.2)
+            .map(|l| format!("obs {} size {:?}", l.observations, l.size_m))
+            .collect::<Vec<_>>();
+        eprintln!("  session 1 detections of it: {s1_seen}, in its map: {in_map:?}");
+        eprintln!(
+            "session {n} t {:.1} rock {i} r {:.3} top above ground {:.3} mode {:?} seen {:?}",
+            t.time_s,
+            rock.radius_m,
+            rock.center.z + rock.radius_m - ground,
+            t.mode,
+            seen
+        );
+        print_approach(moon, log, i, t.time_s);
+    }
+}
+
+/// The 20 s before the hit of rock `i` at `hit_s`, once a second: where the rock was
+/// relative to the rover (true poses), whether a camera saw it and what the rover did.
+fn print_approach(moon: &Moon, log: &SessionLog, i: usize, hit_s: f64) {
+    let rock = &moon.rocks()[i];
+    for f in log
+        .frames
+        .iter()
+        .filter(|f| f.time_s <= hit_s && f.time_s >= hit_s - 20.0)
+    {
+        let tick = &log.ticks[f.tick];
+        let q = tick.world_from_rover.inverse() * rock.center;
+        let det: Vec<String> = f
+            .boulders
+            .iter()
+            .filter(|b| b.rock == Some(i))
+            .map(|b| format!("{:?} r{:.3}", b.camera, b.radius_m))
+            .collect();
+        // the front camera's line of sight to the rock's upper face
+        let cam = tick.world_from_rover * segloc::sim::sensors::cameras()[0].rover_from_camera;
+        let origin = nalgebra::Point3::from(cam.translation.vector);
+        let target = rock.center + nalgebra::Vector3::new(0.0, 0.0, 0.5 * rock.radius_m);
+        let to = target - origin;
+        let ray = moon
+            .cast_ray(&origin, &(to / to.norm()), to.norm() + rock.radius_m, None)
+            .map(|h| format!("{:?} at {:.2} of {:.2}", h.target, h.distance_m, to.norm()));
+        let uv = segloc::sim::sensors::project(&(cam.inverse() * rock.center).coords)
+            .map(|(u, v)| format!("u {u:.0} v {v:.0}"));
+        eprintln!("      front ray {ray:?} centre px {uv:?}");
+        eprintln!(
+            "    t {:.0} rock at range {:.2} bearing {:.0} deg, mode {:?} cmd {:.2} {:.2} detected {:?}",
+            f.time_s,
+            q.x.hypot(q.y),
+            q.y.atan2(q.x).to_degrees(),
+            tick.mode,
+            tick.command.speed_mps,
+            tick.command.yaw_rate_rps,
+            det
+        );
+    }
+}
+
+/// The optimised poses with the true heights.
+fn with_true_z(log: &SessionLog, poses: &[Isometry3<f64>]) -> Vec<Isometry3<f64>> {
+    true_poses(log)
+        .iter()
+        .zip(poses)
+        .map(|(t, e)| {
+            let mut p = *e;
+            p.translation.vector.z = t.translation.vector.z;
+            p
+        })
+        .collect()
+}
+
+/// The LAC maps scored with the estimated poses, with the true ones, with one session on
+/// its true poses, with the true heights, and the coverage ceiling.
+fn score_maps(
+    moon: &Moon,
+    config: &MissionConfig,
+    est: [Poses<'_>; 2],
+) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+    let truth = moon.ground_truth_grid();
+    let [(l1, p1), (l2, p2)] = est;
+    let (t1, t2) = (true_poses(l1), true_poses(l2));
+    let tru: [Poses<'_>; 2] = [(l1, &t1), (l2, &t2)];
+    let secs: f64 = config.session_seconds().iter().sum();
+    let m_est = maps::build_maps(&est, &truth, secs, config)?;
+    let m_tru = maps::build_maps(&tru, &truth, secs, config)?;
+    // one session on its true poses, the other on its estimate: whose error costs the points
+    let m_s1_true = maps::build_maps(&[(l1, &t1), (l2, p2)], &truth, secs, config)?;
+    let m_s2_true = maps::build_maps(&[(l1, p1), (l2, &t2)], &truth, secs, config)?;
+    // the optimised poses with the true height: how much of the loss is z
+    let (z1, z2) = (with_true_z(l1, p1), with_true_z(l2, p2));
+    let m_z = maps::build_maps(&[(l1, &z1), (l2, &z2)], &truth, secs, config)?;
     let h_est = height_split(&est, &truth);
     let h_tru = height_split(&tru, &truth);
-    // perfect heights on observed cells, interpolation elsewhere: the coverage ceiling
+    let ceiling = coverage_ceiling(&tru, &truth)?;
+    Ok(serde_json::json!({
+        "geometric": [m_est.score.geometric, m_z.score.geometric, m_tru.score.geometric, ceiling],
+        "rocks": [m_est.score.rocks, m_tru.score.rocks],
+        "rocks_s1_true_s2_true": [m_s1_true.score.rocks, m_s2_true.score.rocks],
+        "rock_pr_est": [m_est.score.rock_precision, m_est.score.rock_recall],
+        "rock_pr_true": [m_tru.score.rock_precision, m_tru.score.rock_recall],
+        "cells_observed_ok_unobserved_ok_est": h_est,
+        "cells_observed_ok_unobserved_ok_true": h_tru,
+    }))
+}
+
+/// Perfect heights on observed cells, interpolation elsewhere: the coverage ceiling of the
+/// geometric score.
+fn coverage_ceiling(tru: &[Poses<'_>], truth: &LacGrid) -> Result<f64, Box<dyn std::error::Error>> {
     let mut perfect = HeightMapBuilder::new(truth.clone());
-    for (log, poses) in &tru {
+    for (log, poses) in tru {
         for (f, pose) in log.frames.iter().zip(poses.iter()) {
             for g in &f.ground {
                 let p = pose * g.p_rover;
@@ -326,24 +429,5 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    let ceiling = score(&perfect.build(), &truth, None)?.geometric;
-    let out = serde_json::json!({
-        "seed": seed,
-        "view_bias_size_fraction": config.localizer.fusion.view_bias_size_fraction,
-        "geometric": [m_est.score.geometric, m_z.score.geometric, m_tru.score.geometric, ceiling],
-        "rocks": [m_est.score.rocks, m_tru.score.rocks],
-        "rocks_s1_true_s2_true": [m_s1_true.score.rocks, m_s2_true.score.rocks],
-        "rock_pr_est": [m_est.score.rock_precision, m_est.score.rock_recall],
-        "rock_pr_true": [m_tru.score.rock_precision, m_tru.score.rock_recall],
-        "cells_observed_ok_unobserved_ok_est": h_est,
-        "cells_observed_ok_unobserved_ok_true": h_tru,
-        "rmse": [segloc::mission::stream::rmse_m(&s1.log, &s1.poses), segloc::mission::stream::rmse_m(&s2.log, &s2.poses)],
-        "rmse_xy_z_graph": rmse_graph,
-        "tilt_deg": [tilt_deg(&s1.log, &s1.poses), tilt_deg(&s2.log, &s2.poses)],
-        "rmse_xy_z": [rmse_xy_z(&s1.log, &s1.poses), rmse_xy_z(&s2.log, &s2.poses)],
-        "dist": [s1.log.distance_m(), s2.log.distance_m()],
-        "collisions": [s1.log.summary().collisions, s2.log.summary().collisions],
-    });
-    println!("{out}");
-    Ok(())
+    Ok(score(&perfect.build(), truth, None)?.geometric)
 }

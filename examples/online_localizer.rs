@@ -5,6 +5,7 @@
 //! segloc sim export --seed 3 --session 2 -o drive.jsonl --prior-map session1.map.json
 //! cargo run --release --example online_localizer -- drive.jsonl session1.map.json
 //! ```
+#![warn(clippy::too_many_lines)]
 
 use segloc::localizer::{Localizer, LocalizerConfig, LocalizerEvent};
 use segloc::maps::{frames::read_frames, read_map};

@@ -10,6 +10,7 @@
 //! ```sh
 //! cargo run --release --example relocalize_pairs_timing -- [REPEAT]
 //! ```
+#![warn(clippy::too_many_lines)]
 
 use nalgebra::Matrix4;
 use segloc::eval::lunarloc::PAPER_PAIRS;

@@ -6,6 +6,7 @@
 //! `../shared/data`), each moved by a known rigid transform so the result can be checked.
 //!
 //! Run with `cargo run --release --example three_agent_merge`.
+#![warn(clippy::too_many_lines)]
 
 use nalgebra::{Isometry3, Vector3};
 use segloc::eval::{transform_error, traverse_path};

@@ -11,9 +11,11 @@
 //! - [`eval`]: evaluation on the real LunarLoc traverses;
 //! - [`sim`]: generated boulder fields for tests and the demo.
 #![warn(missing_docs)]
+#![warn(clippy::too_many_lines)]
 
 pub mod align;
 pub mod eval;
+pub mod field_error;
 pub mod font;
 pub mod graph;
 pub mod io;

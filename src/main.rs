@@ -1,5 +1,6 @@
 //! The `segloc` command line. Exit codes: 0 success, 1 no match (relocalization refused),
 //! 2 bad input or usage.
+#![warn(clippy::too_many_lines)]
 
 mod cli;
 

@@ -32,6 +32,7 @@
 //! assert_eq!(s.vertices.len(), 8);
 //! ```
 #![warn(missing_docs)]
+#![warn(clippy::too_many_lines)]
 
 mod association;
 mod build;

@@ -33,105 +33,12 @@ pub(crate) fn polish_swaps(
         return None;
     }
     let mut swapped = false;
-    let mut is_member = vec![false; n];
-    let mut count = vec![0u32; n];
-    let mut wsum = vec![0f64; n];
-    let mut mark = vec![false; n];
-    let mut touched: Vec<u32> = Vec::new();
+    let mut scratch = Scratch::new(n);
     for _ in 0..max_rounds {
-        let k = members.len() as u32;
-        for &c in &members {
-            is_member[c as usize] = true;
-        }
-        touched.clear();
-        for &c in &members {
-            for (&x, &w) in graph
-                .neighbors(c as usize)
-                .iter()
-                .zip(graph.weights(c as usize))
-            {
-                if count[x as usize] == 0 {
-                    touched.push(x);
-                }
-                count[x as usize] += 1;
-                wsum[x as usize] += w as f64;
-            }
-        }
-        touched.sort_unstable();
-        // outside vertices missing one or two members, grouped by the missing set
-        let mut miss1: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-        let mut miss2: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
-        for &x in &touched {
-            let cx = count[x as usize];
-            if is_member[x as usize] || cx + 2 < k {
-                continue;
-            }
-            for &y in graph.neighbors(x as usize) {
-                mark[y as usize] = true;
-            }
-            let missing: Vec<u32> = members
-                .iter()
-                .copied()
-                .filter(|&c| !mark[c as usize])
-                .take(3)
-                .collect();
-            for &y in graph.neighbors(x as usize) {
-                mark[y as usize] = false;
-            }
-            match missing.as_slice() {
-                [y] => miss1.entry(*y).or_default().push(x),
-                [y1, y2] => miss2.entry((*y1, *y2)).or_default().push(x),
-                _ => {} // adjacent to all (clique not maximal: extension handles it)
-            }
-        }
-        let w_of = |a: u32, b: u32| graph.edge_weight(a as usize, b as usize).map(f64::from);
-        // Best move: (size gain, weight gain, removed, added)
-        let mut best: Option<(usize, f64, Vec<u32>, Vec<u32>)> = None;
-        let mut consider = |size_gain: usize, gain: f64, rem: Vec<u32>, add: Vec<u32>| {
-            let better = match &best {
-                None => size_gain > 0 || gain > MIN_GAIN,
-                Some((s, g, _, _)) => size_gain > *s || (size_gain == *s && gain > *g),
-            };
-            if better {
-                best = Some((size_gain, gain, rem, add));
-            }
-        };
-        for (&y, xs) in &miss1 {
-            let wy = wsum[y as usize];
-            for &x in xs {
-                consider(0, wsum[x as usize] - wy, vec![y], vec![x]);
-            }
-            let xs = &xs[..xs.len().min(MAX_GROUP)];
-            for (a, &x1) in xs.iter().enumerate() {
-                for &x2 in &xs[a + 1..] {
-                    if let Some(w12) = w_of(x1, x2) {
-                        let gain = wsum[x1 as usize] + wsum[x2 as usize] + w12 - wy;
-                        consider(1, gain, vec![y], vec![x1, x2]);
-                    }
-                }
-            }
-        }
-        for (&(y1, y2), xs) in &miss2 {
-            let w_removed = wsum[y1 as usize] + wsum[y2 as usize] - w_of(y1, y2).unwrap_or(0.0);
-            let xs = &xs[..xs.len().min(MAX_GROUP)];
-            for (a, &x1) in xs.iter().enumerate() {
-                for &x2 in &xs[a + 1..] {
-                    if let Some(w12) = w_of(x1, x2) {
-                        let gain = wsum[x1 as usize] + wsum[x2 as usize] + w12 - w_removed;
-                        consider(0, gain, vec![y1, y2], vec![x1, x2]);
-                    }
-                }
-            }
-        }
-        // reset scratch
-        for &x in &touched {
-            count[x as usize] = 0;
-            wsum[x as usize] = 0.0;
-        }
-        for &c in &members {
-            is_member[c as usize] = false;
-        }
-        let Some((_, _, removed, added)) = best else {
+        let missing = scratch.missing_sets(graph, &members);
+        let best = best_swap(graph, &scratch.wsum, &missing);
+        scratch.reset(&members);
+        let Some(Swap { removed, added, .. }) = best else {
             break;
         };
         members.retain(|c| !removed.contains(c));
@@ -140,6 +47,159 @@ pub(crate) fn polish_swaps(
         swapped = true;
     }
     swapped.then(|| extend_to_maximal(graph, &members))
+}
+
+/// Outside vertices adjacent to all members but one (`one`, by the missing member) or two
+/// (`two`, by the missing pair).
+struct MissingSets {
+    one: BTreeMap<u32, Vec<u32>>,
+    two: BTreeMap<(u32, u32), Vec<u32>>,
+}
+
+/// Per-vertex counters of one round, all zero (false) between rounds.
+struct Scratch {
+    is_member: Vec<bool>,
+    /// Members adjacent to each vertex.
+    count: Vec<u32>,
+    /// Edge weight from each vertex to the members.
+    wsum: Vec<f64>,
+    mark: Vec<bool>,
+    /// Vertices with a non-zero count.
+    touched: Vec<u32>,
+}
+
+impl Scratch {
+    fn new(n: usize) -> Self {
+        Scratch {
+            is_member: vec![false; n],
+            count: vec![0u32; n],
+            wsum: vec![0f64; n],
+            mark: vec![false; n],
+            touched: Vec::new(),
+        }
+    }
+
+    /// Counts each vertex's member neighbours (and their weight), and groups the outside
+    /// vertices missing one or two members by the missing set.
+    fn missing_sets(&mut self, graph: &ConsistencyGraph, members: &[u32]) -> MissingSets {
+        let k = members.len() as u32;
+        for &c in members {
+            self.is_member[c as usize] = true;
+        }
+        self.touched.clear();
+        for &c in members {
+            for (&x, &w) in graph
+                .neighbors(c as usize)
+                .iter()
+                .zip(graph.weights(c as usize))
+            {
+                if self.count[x as usize] == 0 {
+                    self.touched.push(x);
+                }
+                self.count[x as usize] += 1;
+                self.wsum[x as usize] += w as f64;
+            }
+        }
+        self.touched.sort_unstable();
+        let mut sets = MissingSets {
+            one: BTreeMap::new(),
+            two: BTreeMap::new(),
+        };
+        for &x in &self.touched {
+            let cx = self.count[x as usize];
+            if self.is_member[x as usize] || cx + 2 < k {
+                continue;
+            }
+            for &y in graph.neighbors(x as usize) {
+                self.mark[y as usize] = true;
+            }
+            let missing: Vec<u32> = members
+                .iter()
+                .copied()
+                .filter(|&c| !self.mark[c as usize])
+                .take(3)
+                .collect();
+            for &y in graph.neighbors(x as usize) {
+                self.mark[y as usize] = false;
+            }
+            match missing.as_slice() {
+                [y] => sets.one.entry(*y).or_default().push(x),
+                [y1, y2] => sets.two.entry((*y1, *y2)).or_default().push(x),
+                _ => {} // adjacent to all (clique not maximal: extension handles it)
+            }
+        }
+        sets
+    }
+
+    /// Zeroes the counters of this round.
+    fn reset(&mut self, members: &[u32]) {
+        for &x in &self.touched {
+            self.count[x as usize] = 0;
+            self.wsum[x as usize] = 0.0;
+        }
+        for &c in members {
+            self.is_member[c as usize] = false;
+        }
+    }
+}
+
+/// A move: members `removed`, outside vertices `added`.
+struct Swap {
+    size_gain: usize,
+    weight_gain: f64,
+    removed: Vec<u32>,
+    added: Vec<u32>,
+}
+
+/// The best move (largest size gain, then weight gain), if any improves the clique;
+/// `wsum` is each vertex's edge weight to the members.
+fn best_swap(graph: &ConsistencyGraph, wsum: &[f64], missing: &MissingSets) -> Option<Swap> {
+    let w_of = |a: u32, b: u32| graph.edge_weight(a as usize, b as usize).map(f64::from);
+    let mut best: Option<Swap> = None;
+    let mut consider = |size_gain: usize, gain: f64, removed: Vec<u32>, added: Vec<u32>| {
+        let better = match &best {
+            None => size_gain > 0 || gain > MIN_GAIN,
+            Some(b) => {
+                size_gain > b.size_gain || (size_gain == b.size_gain && gain > b.weight_gain)
+            }
+        };
+        if better {
+            best = Some(Swap {
+                size_gain,
+                weight_gain: gain,
+                removed,
+                added,
+            });
+        }
+    };
+    for (&y, xs) in &missing.one {
+        let wy = wsum[y as usize];
+        for &x in xs {
+            consider(0, wsum[x as usize] - wy, vec![y], vec![x]);
+        }
+        let xs = &xs[..xs.len().min(MAX_GROUP)];
+        for (a, &x1) in xs.iter().enumerate() {
+            for &x2 in &xs[a + 1..] {
+                if let Some(w12) = w_of(x1, x2) {
+                    let gain = wsum[x1 as usize] + wsum[x2 as usize] + w12 - wy;
+                    consider(1, gain, vec![y], vec![x1, x2]);
+                }
+            }
+        }
+    }
+    for (&(y1, y2), xs) in &missing.two {
+        let w_removed = wsum[y1 as usize] + wsum[y2 as usize] - w_of(y1, y2).unwrap_or(0.0);
+        let xs = &xs[..xs.len().min(MAX_GROUP)];
+        for (a, &x1) in xs.iter().enumerate() {
+            for &x2 in &xs[a + 1..] {
+                if let Some(w12) = w_of(x1, x2) {
+                    let gain = wsum[x1 as usize] + wsum[x2 as usize] + w12 - w_removed;
+                    consider(0, gain, vec![y1, y2], vec![x1, x2]);
+                }
+            }
+        }
+    }
+    best
 }
 
 #[cfg(test)]

@@ -121,28 +121,10 @@ pub(crate) fn relax(
             inner_iterations: 0,
         };
     }
-    // tolerate odd settings: negative tolerances act as zero, a bad shrink factor as 0.25
+    // tolerate odd settings: negative tolerances act as zero
     let tol = config.support_tolerance.max(0.0);
-    let shrink = if config.step_shrink > 0.0 && config.step_shrink < 1.0 {
-        config.step_shrink
-    } else {
-        0.25
-    };
-    let mut p = Products {
-        mu: vec![0.0; n],
-        du: vec![0.0; n],
-    };
-    // random start in (0, 1), one power step u = (M + I) u0, normalised
-    let mut rng = SplitMix64::new(seed);
-    for x in u.iter_mut() {
-        *x = rng.next_open01();
-    }
-    products(graph, &u, &mut p);
-    for (ui, &mi) in u.iter_mut().zip(&p.mu) {
-        *ui += mi;
-    }
-    normalise(&mut u);
-    products(graph, &u, &mut p);
+    let mut p = Products::zeros(n);
+    random_start(graph, seed, &mut u, &mut p);
     let mut d = match penalty_step(&u, &p, tol) {
         Some(step) => step,
         None => {
@@ -154,56 +136,12 @@ pub(crate) fn relax(
             };
         }
     };
-
-    let mut trial = vec![0.0; n];
-    let mut p_trial = Products {
-        mu: vec![0.0; n],
-        du: vec![0.0; n],
-    };
-    let mut grad = vec![0.0; n];
+    let mut ascent = Ascent::new(graph, config, n);
     let mut inner_total = 0usize;
     let mut outer = 0usize;
     while outer < config.max_outer_iterations {
         outer += 1;
-        let mut f = objective(&u, &p, d);
-        for _ in 0..config.max_inner_iterations {
-            inner_total += 1;
-            for ((g, &mi), &di) in grad.iter_mut().zip(&p.mu).zip(&p.du) {
-                *g = 2.0 * (mi - d * di);
-            }
-            let mut alpha = config.initial_step;
-            let mut accepted = None;
-            for _ in 0..config.max_line_search_steps {
-                for i in 0..n {
-                    trial[i] = (u[i] + alpha * grad[i]).max(0.0);
-                }
-                if normalise(&mut trial) {
-                    products(graph, &trial, &mut p_trial);
-                    let f_trial = objective(&trial, &p_trial, d);
-                    if f_trial >= f {
-                        accepted = Some(f_trial);
-                        break;
-                    }
-                }
-                alpha *= shrink;
-            }
-            let Some(f_new) = accepted else {
-                break; // no ascent step found: stationary for this d
-            };
-            let du_norm = u
-                .iter()
-                .zip(&trial)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f64>()
-                .sqrt();
-            std::mem::swap(&mut u, &mut trial);
-            std::mem::swap(&mut p, &mut p_trial);
-            let df = (f_new - f).abs();
-            f = f_new;
-            if du_norm < config.tolerance_u || df < config.tolerance_f {
-                break;
-            }
-        }
+        inner_total += ascent.run(&mut u, &mut p, d);
         threshold(&mut u, tol);
         products(graph, &u, &mut p);
         match penalty_step(&u, &p, tol) {
@@ -215,6 +153,110 @@ pub(crate) fn relax(
         u,
         outer_iterations: outer,
         inner_iterations: inner_total,
+    }
+}
+
+impl Products {
+    fn zeros(n: usize) -> Self {
+        Products {
+            mu: vec![0.0; n],
+            du: vec![0.0; n],
+        }
+    }
+}
+
+/// The start: `u0` random in (0, 1), one power step `u = (M + I) u0`, normalised; `p` its
+/// products.
+fn random_start(graph: &ConsistencyGraph, seed: u64, u: &mut [f64], p: &mut Products) {
+    let mut rng = SplitMix64::new(seed);
+    for x in u.iter_mut() {
+        *x = rng.next_open01();
+    }
+    products(graph, u, p);
+    for (ui, &mi) in u.iter_mut().zip(&p.mu) {
+        *ui += mi;
+    }
+    normalise(u);
+    products(graph, u, p);
+}
+
+/// Projected gradient ascent on `F` for a fixed penalty, with its scratch buffers.
+struct Ascent<'a> {
+    graph: &'a ConsistencyGraph,
+    config: &'a DensestCliqueConfig,
+    /// The line search's step factor (a bad setting acts as 0.25).
+    shrink: f64,
+    trial: Vec<f64>,
+    p_trial: Products,
+    grad: Vec<f64>,
+}
+
+impl<'a> Ascent<'a> {
+    fn new(graph: &'a ConsistencyGraph, config: &'a DensestCliqueConfig, n: usize) -> Self {
+        let shrink = if config.step_shrink > 0.0 && config.step_shrink < 1.0 {
+            config.step_shrink
+        } else {
+            0.25
+        };
+        Ascent {
+            graph,
+            config,
+            shrink,
+            trial: vec![0.0; n],
+            p_trial: Products::zeros(n),
+            grad: vec![0.0; n],
+        }
+    }
+
+    /// Ascends from `u` (products `p`, both updated) under penalty `d` until stationary or
+    /// converged; returns the iterations run.
+    fn run(&mut self, u: &mut Vec<f64>, p: &mut Products, d: f64) -> usize {
+        let config = self.config;
+        let mut iterations = 0;
+        let mut f = objective(u, p, d);
+        for _ in 0..config.max_inner_iterations {
+            iterations += 1;
+            for ((g, &mi), &di) in self.grad.iter_mut().zip(&p.mu).zip(&p.du) {
+                *g = 2.0 * (mi - d * di);
+            }
+            let Some(f_new) = self.line_search(u, f, d) else {
+                break; // no ascent step found: stationary for this d
+            };
+            let du_norm = u
+                .iter()
+                .zip(&self.trial)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            std::mem::swap(u, &mut self.trial);
+            std::mem::swap(p, &mut self.p_trial);
+            let df = (f_new - f).abs();
+            f = f_new;
+            if du_norm < config.tolerance_u || df < config.tolerance_f {
+                break;
+            }
+        }
+        iterations
+    }
+
+    /// Backtracking along the gradient from `u` (objective `f`): the first step that does not
+    /// decrease `F`, left in `trial` (and `p_trial`); its objective.
+    fn line_search(&mut self, u: &[f64], f: f64, d: f64) -> Option<f64> {
+        let mut alpha = self.config.initial_step;
+        for _ in 0..self.config.max_line_search_steps {
+            for ((t, &ui), &g) in self.trial.iter_mut().zip(u).zip(&self.grad) {
+                *t = (ui + alpha * g).max(0.0);
+            }
+            if normalise(&mut self.trial) {
+                products(self.graph, &self.trial, &mut self.p_trial);
+                let f_trial = objective(&self.trial, &self.p_trial, d);
+                if f_trial >= f {
+                    return Some(f_trial);
+                }
+            }
+            alpha *= self.shrink;
+        }
+        None
     }
 }
 

@@ -23,7 +23,7 @@ use std::path::Path;
 use nalgebra::{Isometry3, Point3};
 
 use crate::atomic::{read_text, write_atomic};
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 use crate::traverse::{header_matches, parse_lunarloc_traverse, TRAVERSE_HEADER};
 use crate::MapError;
 
@@ -354,18 +354,18 @@ const COLUMNS: [&str; 9] = [
     "frame", "x", "y", "z", "size_m", "score", "rover_x", "rover_y", "rover_z",
 ];
 
-fn parse_detection_row(line: &str) -> Result<Detection, String> {
+fn parse_detection_row(line: &str) -> Result<Detection, LineError> {
     let mut f = [""; 9];
     let mut n = 0;
     for field in line.split(',') {
         if n == 9 {
-            return Err(format!("expected 9 fields ({DETECTIONS_HEADER}), got more"));
+            return Err(format!("expected 9 fields ({DETECTIONS_HEADER}), got more").into());
         }
         f[n] = field.trim();
         n += 1;
     }
     if n < 9 {
-        return Err(format!("expected 9 fields ({DETECTIONS_HEADER}), got {n}"));
+        return Err(format!("expected 9 fields ({DETECTIONS_HEADER}), got {n}").into());
     }
     let frame: u64 = f[0].parse().map_err(|_| {
         format!(
@@ -373,7 +373,7 @@ fn parse_detection_row(line: &str) -> Result<Detection, String> {
             snippet(f[0], 30)
         )
     })?;
-    let num = |k: usize| -> Result<Option<f64>, String> {
+    let num = |k: usize| -> Result<Option<f64>, LineError> {
         if f[k].is_empty() {
             return Ok(None);
         }
@@ -387,7 +387,7 @@ fn parse_detection_row(line: &str) -> Result<Detection, String> {
         if v.is_finite() {
             Ok(Some(v))
         } else {
-            Err(format!("{}: '{}' is not a finite number", COLUMNS[k], f[k]))
+            Err(format!("{}: '{}' is not a finite number", COLUMNS[k], f[k]).into())
         }
     };
     let req = |k: usize| num(k)?.ok_or_else(|| format!("{} is required", COLUMNS[k]));
@@ -395,14 +395,14 @@ fn parse_detection_row(line: &str) -> Result<Detection, String> {
     let size_m = num(4)?;
     if let Some(s) = size_m {
         if s < 0.0 {
-            return Err(format!("size_m: {s} is negative"));
+            return Err(format!("size_m: {s} is negative").into());
         }
     }
     let score = num(5)?;
     let rover_position = match (num(6)?, num(7)?, num(8)?) {
         (Some(x), Some(y), Some(z)) => Some(Point3::new(x, y, z)),
         (None, None, None) => None,
-        _ => return Err("rover_x, rover_y, rover_z must be all set or all empty".to_string()),
+        _ => return Err("rover_x, rover_y, rover_z must be all set or all empty".into()),
     };
     Ok(Detection {
         frame,

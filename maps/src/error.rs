@@ -119,6 +119,35 @@ impl MapError {
 }
 
 /// `path:line` or `path`, for messages.
+/// What is wrong with one line (or one field of a line) of a file, said before the reader
+/// knows the file and the line number: the reader wraps it in [`MapError::Parse`] with both.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct LineError {
+    /// What is wrong, naming the field, e.g. `frame: expected a non-negative integer, got 'x'`.
+    pub message: String,
+}
+
+impl From<String> for LineError {
+    fn from(message: String) -> Self {
+        LineError { message }
+    }
+}
+
+impl From<&str> for LineError {
+    fn from(message: &str) -> Self {
+        LineError {
+            message: message.to_string(),
+        }
+    }
+}
+
+impl From<LineError> for String {
+    fn from(e: LineError) -> Self {
+        e.message
+    }
+}
+
 struct Location<'a> {
     path: &'a Path,
     line: Option<usize>,

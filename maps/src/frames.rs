@@ -41,7 +41,7 @@ mod json;
 use json::{array, describe, json_message, number, numbers, optional, required};
 
 use crate::atomic::{read_text, write_atomic};
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 use crate::landmark::{from_upper_triangle, upper_triangle};
 use crate::tum::{unit_quaternion, QUAT_NORM_TOL};
 use crate::{check_covariance, MapError};
@@ -245,7 +245,7 @@ pub fn parse_frames(text: &str, source: impl AsRef<Path>) -> Result<FramesFile, 
             check_header(&object, source, line_no)?;
             continue;
         }
-        let (frame, norm) = parse_frame(&object).map_err(at)?;
+        let (frame, norm) = parse_frame(&object).map_err(|e| at(e.message))?;
         if let Some(norm) = norm {
             file.warnings.push(format!(
                 "{}:{line_no}: quaternion norm {} normalised",
@@ -321,7 +321,7 @@ fn check_header(object: &Map<String, Value>, source: &Path, line: usize) -> Resu
 }
 
 /// One frame line's object; the quaternion norm when it was normalised with a warning.
-fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>), String> {
+fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>), LineError> {
     let t = number(required(object, "t")?, "t")?;
     let [x, y, z, qx, qy, qz, qw] =
         numbers::<7>(required(object, "odom_from_rover")?, "odom_from_rover")?;
@@ -354,7 +354,7 @@ fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>)
                 let field = format!("path.{key}");
                 fields
                     .get(key)
-                    .ok_or_else(|| format!("{field} is missing"))
+                    .ok_or_else(|| LineError::from(format!("{field} is missing")))
                     .and_then(|v| number(v, &field))
             };
             Some(FramePath {
@@ -378,7 +378,7 @@ fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>)
 }
 
 /// One element of `detections`; `field` is its name in messages (`detections[2]`).
-fn parse_detection(item: &Value, field: &str) -> Result<FrameDetection, String> {
+fn parse_detection(item: &Value, field: &str) -> Result<FrameDetection, LineError> {
     let object = item
         .as_object()
         .ok_or_else(|| format!("{field}: expected an object, got {}", describe(item)))?;
@@ -414,18 +414,18 @@ fn format_norm(norm: f64) -> String {
 /// The checks of one frame beyond the JSON types, naming the field: every value finite,
 /// quaternion unit within 10⁻³, gravity non-zero, sizes ≥ 0, covariances PSD with a
 /// positive diagonal, path lengths ≥ 0 and |`turned_rad`| ≤ `turned_abs_rad`.
-fn check_frame(frame: &StreamFrame) -> Result<(), String> {
+fn check_frame(frame: &StreamFrame) -> Result<(), LineError> {
     let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
     if !frame.t.is_finite() {
-        return Err(format!("t: {} is not a finite number", frame.t));
+        return Err(format!("t: {} is not a finite number", frame.t).into());
     }
     let pose = &frame.odom_from_rover;
     if !finite(pose.translation.vector.as_slice()) || !finite(pose.rotation.coords.as_slice()) {
-        return Err("odom_from_rover: a value is not finite".to_string());
+        return Err("odom_from_rover: a value is not finite".into());
     }
     let norm = pose.rotation.coords.norm();
     if (norm - 1.0).abs() > QUAT_NORM_TOL {
-        return Err(format!("odom_from_rover: quaternion norm {norm} is not 1"));
+        return Err(format!("odom_from_rover: quaternion norm {norm} is not 1").into());
     }
     if let Some(g) = &frame.gravity_rover {
         let n = g.norm();
@@ -434,18 +434,20 @@ fn check_frame(frame: &StreamFrame) -> Result<(), String> {
                 "gravity_rover: [{:?}, {:?}, {:?}] is not a usable gravity vector (its \
                  length must be finite and non-zero)",
                 g.x, g.y, g.z
-            ));
+            )
+            .into());
         }
     }
     for (k, d) in frame.detections.iter().enumerate() {
         if !finite(d.p_rover.coords.as_slice()) {
-            return Err(format!("detections[{k}].p_rover: a value is not finite"));
+            return Err(format!("detections[{k}].p_rover: a value is not finite").into());
         }
         if let Some(size) = d.size_m {
             if !(size.is_finite() && size >= 0.0) {
                 return Err(format!(
                     "detections[{k}].size_m: {size} is not a finite non-negative number"
-                ));
+                )
+                .into());
             }
         }
         if let Some(c) = &d.cov_rover {
@@ -455,22 +457,23 @@ fn check_frame(frame: &StreamFrame) -> Result<(), String> {
                     return Err(format!(
                         "detections[{k}].cov_rover: variance {name} = {} must be positive",
                         c[(axis, axis)]
-                    ));
+                    )
+                    .into());
                 }
             }
         }
     }
     for (k, p) in frame.lander_points_rover.iter().enumerate() {
         if !finite(p.coords.as_slice()) {
-            return Err(format!("lander_points_rover[{k}]: a value is not finite"));
+            return Err(format!("lander_points_rover[{k}]: a value is not finite").into());
         }
     }
     if let Some(path) = &frame.path {
         if !finite(&[path.distance_m, path.turned_rad, path.turned_abs_rad]) {
-            return Err("path: a value is not finite".to_string());
+            return Err("path: a value is not finite".into());
         }
         if path.distance_m < 0.0 {
-            return Err(format!("path.distance_m: {} is negative", path.distance_m));
+            return Err(format!("path.distance_m: {} is negative", path.distance_m).into());
         }
         // |Σ Δyaw| ≤ Σ |Δyaw|, up to rounding
         let slack = 1e-9 * path.turned_abs_rad.max(1.0);
@@ -479,7 +482,8 @@ fn check_frame(frame: &StreamFrame) -> Result<(), String> {
                 "path: turned_abs_rad = {} must be ≥ 0 and ≥ |turned_rad| = {}",
                 path.turned_abs_rad,
                 path.turned_rad.abs()
-            ));
+            )
+            .into());
         }
     }
     Ok(())

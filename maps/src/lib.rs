@@ -20,6 +20,7 @@
 //! Every reader returns a [`MapError`] naming the file (and line) on bad input; every writer
 //! is atomic (temporary file in the same directory, then rename).
 #![warn(missing_docs)]
+#![warn(clippy::too_many_lines)]
 
 pub mod atomic;
 pub mod detections;
@@ -39,7 +40,7 @@ pub use detections::{
     detections_to_string, parse_detections, read_any_detections, read_detections, write_detections,
     Detection, DetectionSet, DETECTIONS_FORMAT_VERSION, DETECTIONS_HEADER,
 };
-pub use error::MapError;
+pub use error::{LineError, MapError};
 pub use frames::{
     frame_to_json_line, parse_frames, read_frames, write_frames, FrameDetection, FramePath,
     FramesFile, StreamFrame, FRAMES_FORMAT_NAME, FRAMES_FORMAT_VERSION,
@@ -54,7 +55,7 @@ pub use map_file::{
 };
 pub use object_map::ObjectMap;
 pub use point_list::parse_point_list;
-pub use rigid::{isometry_from_matrix, RIGID_TOLERANCE};
+pub use rigid::{isometry_from_matrix, RigidError, RIGID_TOLERANCE};
 pub use traverse::{
     parse_lunarloc_traverse, read_lunarloc_traverse, Traverse, TraverseFrame, TRAVERSE_HEADER,
 };

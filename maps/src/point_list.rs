@@ -11,14 +11,14 @@
 
 use nalgebra::Point3;
 
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 
 /// Parse a Python-style list of 3-tuples, `[(x, y, z), (x, y, z)]` or `[]`, appending the
 /// points to `out`.
 ///
 /// Spaces anywhere, `[x, y, z]` instead of tuples and trailing commas are accepted;
 /// non-finite coordinates are refused. Errors say what was expected and quote the input where it went wrong.
-pub fn parse_point_list(text: &str, out: &mut Vec<Point3<f64>>) -> Result<(), String> {
+pub fn parse_point_list(text: &str, out: &mut Vec<Point3<f64>>) -> Result<(), LineError> {
     let mut p = Cursor {
         s: text.as_bytes(),
         i: 0,
@@ -97,16 +97,16 @@ impl Cursor<'_> {
         self.text.get(self.i..).unwrap_or("")
     }
 
-    fn expected(&self, what: &str) -> String {
+    fn expected(&self, what: &str) -> LineError {
         let rest = self.rest();
         if rest.is_empty() {
-            format!("boulders: expected {what}, got the end of the field")
+            format!("boulders: expected {what}, got the end of the field").into()
         } else {
-            format!("boulders: expected {what}, got '{}'", snippet(rest, 40))
+            format!("boulders: expected {what}, got '{}'", snippet(rest, 40)).into()
         }
     }
 
-    fn number(&mut self, index: usize) -> Result<f64, String> {
+    fn number(&mut self, index: usize) -> Result<f64, LineError> {
         let start = self.i;
         while self.i < self.s.len() && !matches!(self.s[self.i], b',' | b')' | b']' | b' ' | b'\t')
         {
@@ -121,12 +121,13 @@ impl Cursor<'_> {
             return Err(format!(
                 "boulders: tuple {} has a non-finite coordinate '{tok}'",
                 index + 1
-            ));
+            )
+            .into());
         }
         Ok(v)
     }
 
-    fn end(&mut self) -> Result<(), String> {
+    fn end(&mut self) -> Result<(), LineError> {
         self.ws();
         if self.i == self.s.len() {
             Ok(())
@@ -134,7 +135,8 @@ impl Cursor<'_> {
             Err(format!(
                 "boulders: unexpected text after the list: '{}'",
                 snippet(self.rest(), 40)
-            ))
+            )
+            .into())
         }
     }
 }
@@ -145,7 +147,9 @@ mod tests {
 
     fn parse(text: &str) -> Result<Vec<Point3<f64>>, String> {
         let mut out = Vec::new();
-        parse_point_list(text, &mut out).map(|()| out)
+        parse_point_list(text, &mut out)
+            .map(|()| out)
+            .map_err(String::from)
     }
 
     #[test]

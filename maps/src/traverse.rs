@@ -18,7 +18,7 @@ use nalgebra::{Isometry3, Point3};
 use rayon::prelude::*;
 
 use crate::atomic::read_text;
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 use crate::point_list::parse_point_list;
 use crate::{Detection, DetectionSet, MapError};
 
@@ -208,7 +208,7 @@ pub(crate) fn header_matches(line: &str, expected: &str) -> bool {
     }
 }
 
-fn parse_row(line: &str) -> Result<TraverseFrame, String> {
+fn parse_row(line: &str) -> Result<TraverseFrame, LineError> {
     // byte-level split at the first five commas (this is the hot path)
     let bytes = line.as_bytes();
     let mut comma = [0usize; 5];
@@ -219,7 +219,8 @@ fn parse_row(line: &str) -> Result<TraverseFrame, String> {
             None => {
                 return Err(format!(
                     "expected 6 fields ({TRAVERSE_HEADER}), the row ends before '{name}'"
-                ))
+                )
+                .into())
             }
         }
         start = comma[k] + 1;
@@ -263,7 +264,8 @@ fn parse_row(line: &str) -> Result<TraverseFrame, String> {
             "detections says {count} but boulders lists {} tuple{}",
             boulders.len(),
             if boulders.len() == 1 { "" } else { "s" }
-        ));
+        )
+        .into());
     }
     Ok(TraverseFrame {
         frame,
@@ -272,7 +274,7 @@ fn parse_row(line: &str) -> Result<TraverseFrame, String> {
     })
 }
 
-fn parse_finite(text: &str, name: &str) -> Result<f64, String> {
+fn parse_finite(text: &str, name: &str) -> Result<f64, LineError> {
     let t = fast_trim(text);
     let v: f64 = t
         .parse()
@@ -280,7 +282,7 @@ fn parse_finite(text: &str, name: &str) -> Result<f64, String> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(format!("{name}: '{t}' is not a finite number"))
+        Err(format!("{name}: '{t}' is not a finite number").into())
     }
 }
 

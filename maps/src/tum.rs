@@ -25,7 +25,7 @@ use std::path::Path;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 
 use crate::atomic::{read_text, write_atomic};
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 use crate::MapError;
 
 /// The comment line segloc writes at the top of a TUM file.
@@ -50,7 +50,9 @@ const QUAT_EXACT_TOL: f64 = 1e-12;
 /// - ≤ 10⁻⁶ (print rounding): normalised;
 /// - ≤ 10⁻³: normalised, and the norm is returned so that the caller can warn;
 /// - larger: an error naming the norm.
-pub(crate) fn unit_quaternion(q: [f64; 4]) -> Result<(UnitQuaternion<f64>, Option<f64>), String> {
+pub(crate) fn unit_quaternion(
+    q: [f64; 4],
+) -> Result<(UnitQuaternion<f64>, Option<f64>), LineError> {
     let [x, y, z, w] = q;
     let quat = Quaternion::new(w, x, y, z);
     let norm = quat.norm();
@@ -59,7 +61,8 @@ pub(crate) fn unit_quaternion(q: [f64; 4]) -> Result<(UnitQuaternion<f64>, Optio
         return Err(format!(
             "quaternion [qx, qy, qz, qw] = [{x}, {y}, {z}, {w}] has norm {norm}, not 1 \
              (at most {QUAT_NORM_TOL} off is normalised)"
-        ));
+        )
+        .into());
     }
     if off <= QUAT_EXACT_TOL {
         Ok((UnitQuaternion::new_unchecked(quat), None))
@@ -176,7 +179,7 @@ pub fn parse_tum(
 }
 
 /// One pose line, `t tx ty tz qx qy qz qw`.
-fn parse_tum_line(line: &str) -> Result<(f64, Isometry3<f64>), String> {
+fn parse_tum_line(line: &str) -> Result<(f64, Isometry3<f64>), LineError> {
     let mut v = [0.0; 8];
     let mut n = 0;
     for field in line.split_whitespace() {
@@ -184,7 +187,8 @@ fn parse_tum_line(line: &str) -> Result<(f64, Isometry3<f64>), String> {
             return Err(format!(
                 "expected 8 numbers (t tx ty tz qx qy qz qw), got more: '{}'",
                 snippet(line, 80)
-            ));
+            )
+            .into());
         }
         let value: f64 = field.parse().map_err(|_| {
             format!(
@@ -198,15 +202,14 @@ fn parse_tum_line(line: &str) -> Result<(f64, Isometry3<f64>), String> {
                 "{}: '{}' is not a finite number",
                 FIELDS[n],
                 snippet(field, 30)
-            ));
+            )
+            .into());
         }
         v[n] = value;
         n += 1;
     }
     if n < 8 {
-        return Err(format!(
-            "expected 8 numbers (t tx ty tz qx qy qz qw), got {n}"
-        ));
+        return Err(format!("expected 8 numbers (t tx ty tz qx qy qz qw), got {n}").into());
     }
     let (rotation, _) = unit_quaternion([v[4], v[5], v[6], v[7]])?;
     let pose = Isometry3::from_parts(Translation3::new(v[1], v[2], v[3]), rotation);

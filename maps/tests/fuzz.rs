@@ -168,7 +168,7 @@ fn fuzz_point_list() {
     let seeds = vec![b"[(-3.0341, -4.9741, 1.3523), (-3.5111, -4.1534, 1.3662)]".to_vec()];
     fuzz("point list", seeds, text_bound, |b| {
         let mut out = Vec::new();
-        parse_point_list(&text(b), &mut out)
+        parse_point_list(&text(b), &mut out).map_err(String::from)
     });
 }
 

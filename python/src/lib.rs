@@ -5,6 +5,7 @@
 //! with the library's message (which names the file and line for bad input). Long calls
 //! release the GIL.
 #![warn(missing_docs)]
+#![warn(clippy::too_many_lines)]
 
 mod config;
 mod convert;

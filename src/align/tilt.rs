@@ -26,6 +26,7 @@
 //! horizontal axes: the tilt.
 
 use super::{align_yaw, WeightedPair};
+use crate::field_error::FieldError;
 use nalgebra::{
     Isometry3, Matrix2, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
@@ -66,27 +67,33 @@ impl Default for TiltConfig {
 
 impl TiltConfig {
     /// Check the values; the error names the field (`tilt.…`).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         let positive = |name: &str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(format!("tilt.{name} must be a positive number, got {v}"))
+                Err(FieldError::new(
+                    format!("tilt.{name}"),
+                    format!("must be a positive number, got {v}"),
+                ))
             }
         };
         positive("gravity_sigma_deg", self.gravity_sigma_deg)?;
         positive("max_tilt_sigma_deg", self.max_tilt_sigma_deg)?;
         positive("max_tilt_deg", self.max_tilt_deg)?;
         if !(self.level_within_sigmas.is_finite() && self.level_within_sigmas >= 0.0) {
-            return Err(format!(
-                "tilt.level_within_sigmas must be a non-negative number, got {}",
-                self.level_within_sigmas
+            return Err(FieldError::new(
+                "tilt.level_within_sigmas",
+                format!(
+                    "must be a non-negative number, got {}",
+                    self.level_within_sigmas
+                ),
             ));
         }
         if self.iterations == 0 || self.iterations > 100 {
-            return Err(format!(
-                "tilt.iterations must be within 1..=100, got {}",
-                self.iterations
+            return Err(FieldError::new(
+                "tilt.iterations",
+                format!("must be within 1..=100, got {}", self.iterations),
             ));
         }
         Ok(())
@@ -385,6 +392,7 @@ mod tests {
         assert!(c
             .validate()
             .unwrap_err()
+            .to_string()
             .contains("tilt.max_tilt_sigma_deg"));
     }
 }

@@ -53,49 +53,8 @@ struct Pair {
 /// Run `segloc bench detect`.
 pub fn run(args: &BenchDetectArgs) -> Result<i32> {
     let pairs = load_pairs(args)?;
-    let config = super::detect::load_frontend_config(args.frontend_config.as_deref())?;
-    let segmenter = GeometricSegmenter::new(config.geometric.clone());
-    let mut front_end = FrontEnd::new(config, Box::new(segmenter))?;
-    let mut timings: Vec<Vec<FrontEndTiming>> = vec![Vec::new(); pairs.len()];
-    let mut boulders = vec![0usize; pairs.len()];
-    let mut cpu_ms: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
-    let mut first = None;
-    for round in 0..args.warmup + args.repeat.max(1) {
-        for (k, pair) in pairs.iter().enumerate() {
-            let cpu_before = process_cpu_ms();
-            let result = front_end
-                .process(&pair.left, &pair.right)
-                .with_context(|| format!("pair {}", pair.name))?;
-            let cpu = process_cpu_ms() - cpu_before;
-            first.get_or_insert(result.timing);
-            boulders[k] = result.boulders.len();
-            if round >= args.warmup {
-                timings[k].push(result.timing);
-                cpu_ms[k].push(cpu);
-            }
-        }
-    }
-    let all: Vec<FrontEndTiming> = timings.iter().flatten().copied().collect();
-    let per_pair: Vec<Value> = pairs
-        .iter()
-        .zip(&timings)
-        .zip(&boulders)
-        .zip(&cpu_ms)
-        .map(|(((pair, t), &n), cpu)| {
-            let mut ms = stage_stats(t);
-            ms["cpu"] = stats(cpu.clone());
-            json!({"pair": pair.name, "runs": t.len(), "boulders": n, "ms": ms})
-        })
-        .collect();
-    let mut all_ms = stage_stats(&all);
-    all_ms["cpu"] = stats(cpu_ms.concat());
-    let out = json!({
-        "pairs": per_pair,
-        "all": {"runs": all.len(), "ms": all_ms},
-        "first_frame_ms": first,
-        "threads": rayon::current_num_threads(),
-        "warmup_rounds": args.warmup,
-    });
+    let runs = time_rounds(args, &pairs)?;
+    let out = summary(args, &pairs, &runs);
     if args.json {
         print_json(&out)?;
         return Ok(0);
@@ -106,8 +65,80 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
         args.repeat.max(1),
         args.warmup,
         rayon::current_num_threads(),
-        first.map_or(f64::NAN, |t| t.total_ms)
+        runs.first.map_or(f64::NAN, |t| t.total_ms)
     );
+    print_table(&out);
+    Ok(0)
+}
+
+/// What the timed rounds measured, per pair.
+struct Runs {
+    /// Stage timings of each timed run.
+    timings: Vec<Vec<FrontEndTiming>>,
+    /// Boulders found (last run).
+    boulders: Vec<usize>,
+    /// Process CPU time of each timed run, milliseconds.
+    cpu_ms: Vec<Vec<f64>>,
+    /// The very first frame of the process.
+    first: Option<FrontEndTiming>,
+}
+
+/// Runs the warm-up and timed rounds, one front end for every frame.
+fn time_rounds(args: &BenchDetectArgs, pairs: &[Pair]) -> Result<Runs> {
+    let config = super::detect::load_frontend_config(args.frontend_config.as_deref())?;
+    let segmenter = GeometricSegmenter::new(config.geometric.clone());
+    let mut front_end = FrontEnd::new(config, Box::new(segmenter))?;
+    let mut runs = Runs {
+        timings: vec![Vec::new(); pairs.len()],
+        boulders: vec![0usize; pairs.len()],
+        cpu_ms: vec![Vec::new(); pairs.len()],
+        first: None,
+    };
+    for round in 0..args.warmup + args.repeat.max(1) {
+        for (k, pair) in pairs.iter().enumerate() {
+            let cpu_before = process_cpu_ms();
+            let result = front_end
+                .process(&pair.left, &pair.right)
+                .with_context(|| format!("pair {}", pair.name))?;
+            let cpu = process_cpu_ms() - cpu_before;
+            runs.first.get_or_insert(result.timing);
+            runs.boulders[k] = result.boulders.len();
+            if round >= args.warmup {
+                runs.timings[k].push(result.timing);
+                runs.cpu_ms[k].push(cpu);
+            }
+        }
+    }
+    Ok(runs)
+}
+
+/// The JSON summary: statistics per pair and over all of them.
+fn summary(args: &BenchDetectArgs, pairs: &[Pair], runs: &Runs) -> Value {
+    let all: Vec<FrontEndTiming> = runs.timings.iter().flatten().copied().collect();
+    let per_pair: Vec<Value> = pairs
+        .iter()
+        .zip(&runs.timings)
+        .zip(&runs.boulders)
+        .zip(&runs.cpu_ms)
+        .map(|(((pair, t), &n), cpu)| {
+            let mut ms = stage_stats(t);
+            ms["cpu"] = stats(cpu.clone());
+            json!({"pair": pair.name, "runs": t.len(), "boulders": n, "ms": ms})
+        })
+        .collect();
+    let mut all_ms = stage_stats(&all);
+    all_ms["cpu"] = stats(runs.cpu_ms.concat());
+    json!({
+        "pairs": per_pair,
+        "all": {"runs": all.len(), "ms": all_ms},
+        "first_frame_ms": runs.first,
+        "threads": rayon::current_num_threads(),
+        "warmup_rounds": args.warmup,
+    })
+}
+
+/// The table of [`summary`]: one line per pair, then all.
+fn print_table(out: &Value) {
     println!(
         "{:<10} {:>4}  {:>23}  {:>23}  {:>17}  {:>17}  {:>7}",
         "pair",
@@ -118,6 +149,7 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
         "boulders med/p90",
         "cpu med"
     );
+    let per_pair = out["pairs"].as_array().map_or(&[][..], Vec::as_slice);
     let rows = per_pair
         .iter()
         .map(|p| {
@@ -151,7 +183,6 @@ pub fn run(args: &BenchDetectArgs) -> Result<i32> {
             f("cpu", "median"),
         );
     }
-    Ok(0)
 }
 
 fn load_pairs(args: &BenchDetectArgs) -> Result<Vec<Pair>> {

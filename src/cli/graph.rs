@@ -603,68 +603,21 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         Some(r) => (r.time_ms, r.iterations, r.factors),
         None => (batch.time_ms, 0, inc.graph().num_factors()),
     };
-    let odometry = synth.odometry();
-    let mut next = n;
+    let mut appender = Appender {
+        inc,
+        synth: &synth,
+        odometry: synth.odometry(),
+        next: n,
+    };
     // 1. Odometry only: one pose and its odometry factor per update.
-    let mut odo_ms = Vec::new();
-    let mut skipped = 0usize;
-    for _ in 0..a.appends {
-        let e = odometry[(next - 1) as usize];
-        let t = Instant::now();
-        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
-        let r = inc.update()?;
-        odo_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        skipped += usize::from(r.method == UpdateMethod::Skipped);
-        next += 1;
-    }
+    let (odo_ms, skipped) = appender.odometry_only(a.appends)?;
     // 2. One pose, its odometry and a loop closure back to a pose 40–90 steps earlier per
     //    update, consecutively (batches included whenever the updater decides on one).
-    let mut loop_ms = Vec::new();
-    let mut methods = [0usize; 4];
-    let mut by_method: [Vec<f64>; 4] = Default::default();
-    let mut gaps = Vec::new();
-    let mut pose_diffs = Vec::new();
-    for k in 0..a.appends {
-        let e = odometry[(next - 1) as usize];
-        let back = next.saturating_sub(40 + (7 * k as u64) % 50);
-        let z = synth.truth[back as usize].inv_mul(&synth.truth[next as usize]);
-        let t = Instant::now();
-        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
-        inc.graph_mut()
-            .add_between(back, next, z, e.information, RobustKernel::None)?;
-        let r = inc.update()?;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        loop_ms.push(ms);
-        methods[r.method as usize] += 1;
-        by_method[r.method as usize].push(ms);
-        next += 1;
-        // Accuracy (untimed): the full batch optimum of the same graph.
-        let mut full = inc.graph().clone();
-        let report = full.optimize(&SolverConfig {
-            relative_tolerance: 1e-10,
-            absolute_tolerance: 0.0,
-            log_iterations: false,
-            ..SolverConfig::default()
-        })?;
-        let cost = inc.graph().cost();
-        gaps.push((cost - report.final_cost) / report.final_cost);
-        let diff = (0..=next)
-            .filter_map(|id| Some((inc.graph().pose(id)?, full.pose(id)?)))
-            .map(|(p, q)| (p.translation.vector - q.translation.vector).norm())
-            .fold(0.0f64, f64::max);
-        pose_diffs.push(diff);
-    }
+    let mut closures = appender.loop_closures(a.appends)?;
     // 3. Reference: one pose + odometry with a forced full warm-started re-optimisation.
-    let mut odo_full_ms = Vec::new();
-    for _ in 0..forced {
-        let e = odometry[(next - 1) as usize];
-        let t = Instant::now();
-        inc.add_odometry(e.from, e.to, e.measured, e.information)?;
-        inc.invalidate();
-        inc.update()?;
-        odo_full_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        next += 1;
-    }
+    let odo_full_ms = appender.forced_full(forced)?;
+    let mut by_method =
+        |m: UpdateMethod| summarise(std::mem::take(&mut closures.by_method[m as usize]));
     let out = BenchOutput {
         poses: a.poses,
         factors,
@@ -673,21 +626,15 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         odometry_append_ms: summarise(odo_ms),
         odometry_append_skipped: skipped as f64 / a.appends as f64,
         odometry_append_full_ms: summarise(odo_full_ms),
-        loop_closure_append_ms: summarise(loop_ms),
-        loop_closure_incremental: methods[UpdateMethod::Incremental as usize],
-        loop_closure_incremental_ms: summarise(std::mem::take(
-            &mut by_method[UpdateMethod::Incremental as usize],
-        )),
-        loop_closure_relinearized: methods[UpdateMethod::Relinearized as usize],
-        loop_closure_relinearized_ms: summarise(std::mem::take(
-            &mut by_method[UpdateMethod::Relinearized as usize],
-        )),
-        loop_closure_batch_ms: summarise(std::mem::take(
-            &mut by_method[UpdateMethod::Batch as usize],
-        )),
-        loop_closure_batch: methods[UpdateMethod::Batch as usize],
-        loop_closure_cost_gap: summarise(gaps),
-        loop_closure_max_position_diff_m: summarise(pose_diffs),
+        loop_closure_append_ms: summarise(std::mem::take(&mut closures.ms)),
+        loop_closure_incremental: closures.methods[UpdateMethod::Incremental as usize],
+        loop_closure_incremental_ms: by_method(UpdateMethod::Incremental),
+        loop_closure_relinearized: closures.methods[UpdateMethod::Relinearized as usize],
+        loop_closure_relinearized_ms: by_method(UpdateMethod::Relinearized),
+        loop_closure_batch_ms: by_method(UpdateMethod::Batch),
+        loop_closure_batch: closures.methods[UpdateMethod::Batch as usize],
+        loop_closure_cost_gap: summarise(std::mem::take(&mut closures.gaps)),
+        loop_closure_max_position_diff_m: summarise(std::mem::take(&mut closures.pose_diffs)),
     };
     if a.json {
         println!("{}", serde_json::to_string(&out)?);
@@ -695,6 +642,119 @@ fn bench_incremental(a: &BenchIncrementalArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
     }
     Ok(())
+}
+
+/// Appends the synthetic graph's poses one by one to the incremental graph.
+struct Appender<'a> {
+    inc: IncrementalGraph,
+    synth: &'a synthetic::SyntheticGraph,
+    /// The odometry edges, entry `i` from pose `i` to `i + 1`.
+    odometry: Vec<&'a segloc::graph::file::FileEdge>,
+    /// The next pose to append.
+    next: u64,
+}
+
+/// What the loop-closure appends measured.
+struct LoopClosureRun {
+    /// Time of each append (its update included), milliseconds.
+    ms: Vec<f64>,
+    /// Appends by update method.
+    methods: [usize; 4],
+    /// Their times, by update method.
+    by_method: [Vec<f64>; 4],
+    /// Relative cost gap to the full batch optimum after each append.
+    gaps: Vec<f64>,
+    /// Largest position difference to that optimum after each append, metres.
+    pose_diffs: Vec<f64>,
+}
+
+impl Appender<'_> {
+    /// `appends` poses with their odometry, one update each: the times (milliseconds) and
+    /// how many updates were skipped.
+    fn odometry_only(&mut self, appends: usize) -> anyhow::Result<(Vec<f64>, usize)> {
+        let mut odo_ms = Vec::new();
+        let mut skipped = 0usize;
+        for _ in 0..appends {
+            let e = self.odometry[(self.next - 1) as usize];
+            let t = Instant::now();
+            self.inc
+                .add_odometry(e.from, e.to, e.measured, e.information)?;
+            let r = self.inc.update()?;
+            odo_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            skipped += usize::from(r.method == UpdateMethod::Skipped);
+            self.next += 1;
+        }
+        Ok((odo_ms, skipped))
+    }
+
+    /// `appends` poses with their odometry and a loop closure 40–90 poses back, one update
+    /// each, every one compared (untimed) with the full batch optimum.
+    fn loop_closures(&mut self, appends: usize) -> anyhow::Result<LoopClosureRun> {
+        let mut run = LoopClosureRun {
+            ms: Vec::new(),
+            methods: [0usize; 4],
+            by_method: Default::default(),
+            gaps: Vec::new(),
+            pose_diffs: Vec::new(),
+        };
+        for k in 0..appends {
+            let next = self.next;
+            let e = self.odometry[(next - 1) as usize];
+            let back = next.saturating_sub(40 + (7 * k as u64) % 50);
+            let z = self.synth.truth[back as usize].inv_mul(&self.synth.truth[next as usize]);
+            let t = Instant::now();
+            self.inc
+                .add_odometry(e.from, e.to, e.measured, e.information)?;
+            self.inc
+                .graph_mut()
+                .add_between(back, next, z, e.information, RobustKernel::None)?;
+            let r = self.inc.update()?;
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            run.ms.push(ms);
+            run.methods[r.method as usize] += 1;
+            run.by_method[r.method as usize].push(ms);
+            self.next += 1;
+            let (gap, diff) = self.gap_to_batch()?;
+            run.gaps.push(gap);
+            run.pose_diffs.push(diff);
+        }
+        Ok(run)
+    }
+
+    /// Accuracy (untimed): the relative cost gap to the full batch optimum of the same
+    /// graph, and the largest position difference to it.
+    fn gap_to_batch(&self) -> anyhow::Result<(f64, f64)> {
+        let mut full = self.inc.graph().clone();
+        let report = full.optimize(&SolverConfig {
+            relative_tolerance: 1e-10,
+            absolute_tolerance: 0.0,
+            log_iterations: false,
+            ..SolverConfig::default()
+        })?;
+        let cost = self.inc.graph().cost();
+        let diff = (0..=self.next)
+            .filter_map(|id| Some((self.inc.graph().pose(id)?, full.pose(id)?)))
+            .map(|(p, q)| (p.translation.vector - q.translation.vector).norm())
+            .fold(0.0f64, f64::max);
+        Ok(((cost - report.final_cost) / report.final_cost, diff))
+    }
+
+    /// `count` poses with their odometry, each followed by a forced full warm-started
+    /// re-optimisation: the times, milliseconds.
+    fn forced_full(&mut self, count: usize) -> anyhow::Result<Vec<f64>> {
+        let mut odo_full_ms = Vec::new();
+        for _ in 0..count {
+            let e = self.odometry[(self.next - 1) as usize];
+            let t = Instant::now();
+            self.inc
+                .add_odometry(e.from, e.to, e.measured, e.information)?;
+            self.inc.invalidate();
+            self.inc.update()?;
+            odo_full_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            self.next += 1;
+        }
+        Ok(odo_full_ms)
+    }
 }
 
 fn corrupt(a: &CorruptArgs) -> anyhow::Result<()> {

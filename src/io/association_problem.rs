@@ -50,6 +50,47 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<AssociationProblem, MapE
     let (line_no, header) = lines
         .next()
         .ok_or_else(|| MapError::parse(path, "empty file: expected a header line"))?;
+    let header = parse_header(header, line_no, path)?;
+    let (n_prior, n_query) = (header.n_prior, header.n_query);
+    let mut point = |what: &str| {
+        let (k, l) = lines
+            .next()
+            .ok_or_else(|| MapError::parse(path, format!("file ends before all {what} points")))?;
+        parse_point(l, what, k, path)
+    };
+    let prior = (0..n_prior)
+        .map(|_| point("prior"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let query = (0..n_query)
+        .map(|_| point("query"))
+        .collect::<Result<Vec<_>, _>>()?;
+    // n_assoc is the header's word: reserve no more than the text can hold (`i j\n` is 4
+    // bytes), so a huge count is a short-file error, not an allocation
+    let mut associations = Vec::with_capacity(header.n_assoc.min(text.len() / 4));
+    for _ in 0..header.n_assoc {
+        let (k, l) = lines
+            .next()
+            .ok_or_else(|| MapError::parse(path, "file ends before all associations"))?;
+        associations.push(parse_association(l, (n_prior, n_query), k, path)?);
+    }
+    Ok(AssociationProblem {
+        prior,
+        query,
+        associations,
+        invariant: header.invariant,
+    })
+}
+
+/// The header line of a problem file.
+struct Header {
+    n_prior: usize,
+    n_query: usize,
+    n_assoc: usize,
+    invariant: Invariant,
+}
+
+/// Parse the header `n_prior n_query n_assoc epsilon sigma [dof]` (line `line_no`).
+fn parse_header(header: &str, line_no: usize, path: &Path) -> Result<Header, MapError> {
     let fields: Vec<&str> = header.split_whitespace().collect();
     if fields.len() < 5 || fields.len() > 6 {
         return Err(MapError::parse_at(
@@ -101,69 +142,55 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<AssociationProblem, MapE
             ))
         }
     };
-    let mut point = |what: &str| -> Result<Point3<f64>, MapError> {
-        let (k, l) = lines
-            .next()
-            .ok_or_else(|| MapError::parse(path, format!("file ends before all {what} points")))?;
-        let v: Vec<f64> = l
-            .split_whitespace()
-            .map(|s| s.parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| {
-                MapError::parse_at(
-                    path,
-                    k,
-                    format!("{what} point: expected 'x y z', got '{l}'"),
-                )
-            })?;
-        match v.as_slice() {
-            [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => {
-                Ok(Point3::new(*x, *y, *z))
-            }
-            _ => Err(MapError::parse_at(
-                path,
-                k,
-                format!("{what} point: expected three finite numbers, got '{l}'"),
-            )),
-        }
-    };
-    let prior = (0..n_prior)
-        .map(|_| point("prior"))
-        .collect::<Result<Vec<_>, _>>()?;
-    let query = (0..n_query)
-        .map(|_| point("query"))
-        .collect::<Result<Vec<_>, _>>()?;
-    // n_assoc is the header's word: reserve no more than the text can hold (`i j\n` is 4
-    // bytes), so a huge count is a short-file error, not an allocation
-    let mut associations = Vec::with_capacity(n_assoc.min(text.len() / 4));
-    for _ in 0..n_assoc {
-        let (k, l) = lines
-            .next()
-            .ok_or_else(|| MapError::parse(path, "file ends before all associations"))?;
-        let mut it = l.split_whitespace().map(|s| s.parse::<u32>());
-        match (it.next(), it.next(), it.next()) {
-            (Some(Ok(i)), Some(Ok(j)), None)
-                if (i as usize) < n_prior && (j as usize) < n_query =>
-            {
-                associations.push(Association { prior: i, query: j })
-            }
-            _ => {
-                return Err(MapError::parse_at(
-                    path,
-                    k,
-                    format!(
-                    "association: expected 'i j' with i < {n_prior} and j < {n_query}, got '{l}'"
-                ),
-                ))
-            }
-        }
-    }
-    Ok(AssociationProblem {
-        prior,
-        query,
-        associations,
+    Ok(Header {
+        n_prior,
+        n_query,
+        n_assoc,
         invariant,
     })
+}
+
+/// Parse a point line `x y z` (line `k`, of the `what` points).
+fn parse_point(l: &str, what: &str, k: usize, path: &Path) -> Result<Point3<f64>, MapError> {
+    let v: Vec<f64> = l
+        .split_whitespace()
+        .map(|s| s.parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            MapError::parse_at(
+                path,
+                k,
+                format!("{what} point: expected 'x y z', got '{l}'"),
+            )
+        })?;
+    match v.as_slice() {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Point3::new(*x, *y, *z)),
+        _ => Err(MapError::parse_at(
+            path,
+            k,
+            format!("{what} point: expected three finite numbers, got '{l}'"),
+        )),
+    }
+}
+
+/// Parse an association line `i j` (line `k`), with `i < n_prior` and `j < n_query`.
+fn parse_association(
+    l: &str,
+    (n_prior, n_query): (usize, usize),
+    k: usize,
+    path: &Path,
+) -> Result<Association, MapError> {
+    let mut it = l.split_whitespace().map(|s| s.parse::<u32>());
+    match (it.next(), it.next(), it.next()) {
+        (Some(Ok(i)), Some(Ok(j)), None) if (i as usize) < n_prior && (j as usize) < n_query => {
+            Ok(Association { prior: i, query: j })
+        }
+        _ => Err(MapError::parse_at(
+            path,
+            k,
+            format!("association: expected 'i j' with i < {n_prior} and j < {n_query}, got '{l}'"),
+        )),
+    }
 }
 
 /// An all-to-all problem in the exchange format. For the gravity-aligned invariant the

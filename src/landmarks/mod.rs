@@ -13,6 +13,7 @@ pub mod size_bias;
 pub mod stereo_noise;
 pub mod view_bias;
 
+use crate::field_error::FieldError;
 pub use estimate::CentroidEstimator;
 pub use from_points::{map_from_points, PointsMapOptions};
 use segloc_maps::{Detection, DetectionSet, ObjectMap};
@@ -77,7 +78,7 @@ pub struct FusionConfig {
 impl FusionConfig {
     /// Checks that every distance, noise figure and width is finite and non-negative, the
     /// cluster radius positive and the range gate ordered; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         let non_negative = [
             (self.min_range_m, "min_range_m"),
             (self.repeatability_m, "repeatability_m"),
@@ -91,20 +92,33 @@ impl FusionConfig {
             .iter()
             .find(|(v, _)| !(v.is_finite() && *v >= 0.0))
         {
-            return Err(format!("{name} must be finite and non-negative"));
+            return Err(FieldError::new(*name, "must be finite and non-negative"));
         }
         if !(self.cluster_radius_m.is_finite() && self.cluster_radius_m > 0.0) {
-            return Err("cluster_radius_m must be positive".into());
+            return Err(FieldError::new("cluster_radius_m", "must be positive"));
         }
         if self.max_range_m.is_nan() || self.max_range_m < self.min_range_m {
-            return Err("max_range_m must not be below min_range_m".into());
+            return Err(FieldError::new(
+                "max_range_m",
+                "must not be below min_range_m",
+            ));
         }
         if !(self.view_bias_m.is_finite() && self.view_bias_size_fraction.is_finite()) {
-            return Err("view_bias_m and view_bias_size_fraction must be finite".into());
+            let field = if self.view_bias_m.is_finite() {
+                "view_bias_size_fraction"
+            } else {
+                "view_bias_m"
+            };
+            return Err(FieldError::new(field, "must be finite"));
         }
         let (focal, baseline) = (self.stereo.focal_px, self.stereo.baseline_m);
         if !(focal.is_finite() && focal > 0.0 && baseline.is_finite() && baseline > 0.0) {
-            return Err("stereo.focal_px and stereo.baseline_m must be positive".into());
+            let field = if focal.is_finite() && focal > 0.0 {
+                "stereo.baseline_m"
+            } else {
+                "stereo.focal_px"
+            };
+            return Err(FieldError::new(field, "must be positive"));
         }
         Ok(())
     }
@@ -223,14 +237,26 @@ mod tests {
             pose_sigma_m: f64::NAN,
             ..FusionConfig::default()
         };
-        assert!(bad.validate().unwrap_err().contains("pose_sigma_m"));
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("pose_sigma_m"));
         let inverted = FusionConfig {
             min_range_m: 9.0,
             ..FusionConfig::default()
         };
-        assert!(inverted.validate().unwrap_err().contains("max_range_m"));
+        assert!(inverted
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("max_range_m"));
         let mut blind = FusionConfig::default();
         blind.stereo.focal_px = 0.0;
-        assert!(blind.validate().unwrap_err().contains("focal_px"));
+        assert!(blind
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("focal_px"));
     }
 }

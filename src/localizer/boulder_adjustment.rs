@@ -38,6 +38,7 @@
 
 use super::frame_log::FrameLog;
 use super::trajectory::TrajectoryGraph;
+use crate::field_error::FieldError;
 use crate::graph::{GraphError, RobustKernel, SolverConfig};
 use crate::landmarks::cluster::cluster_points;
 use crate::landmarks::estimate::{detection_information, median, stereo_weighted};
@@ -99,18 +100,21 @@ impl BoulderAdjustmentConfig {
     }
 
     /// Checks the values; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         if !(self.model_sigma_m.is_finite() && self.model_sigma_m >= 0.0) {
-            return Err("model_sigma_m must be finite and non-negative".into());
+            return Err(FieldError::new(
+                "model_sigma_m",
+                "must be finite and non-negative",
+            ));
         }
         if !(self.cauchy_sigmas.is_finite() && self.cauchy_sigmas > 0.0) {
-            return Err("cauchy_sigmas must be positive".into());
+            return Err(FieldError::new("cauchy_sigmas", "must be positive"));
         }
         if !(self.relative_tolerance.is_finite() && self.relative_tolerance > 0.0) {
-            return Err("relative_tolerance must be positive".into());
+            return Err(FieldError::new("relative_tolerance", "must be positive"));
         }
         if self.rounds > 20 {
-            return Err("rounds must be at most 20".into());
+            return Err(FieldError::new("rounds", "must be at most 20"));
         }
         Ok(())
     }
@@ -590,7 +594,11 @@ mod tests {
             model_sigma_m: -1.0,
             ..BoulderAdjustmentConfig::default()
         };
-        assert!(bad.validate().unwrap_err().contains("model_sigma_m"));
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("model_sigma_m"));
     }
 
     #[test]

@@ -425,10 +425,10 @@ impl LocalizerConfig {
         self.lander.validate().map_err(|e| e.within("lander"))?;
         self.fusion
             .validate()
-            .map_err(|m| ConfigError::new("fusion", m))?;
+            .map_err(|m| ConfigError::new("fusion", m.to_string()))?;
         self.boulder_adjustment
             .validate()
-            .map_err(|m| ConfigError::new("boulder_adjustment", m))?;
+            .map_err(|m| ConfigError::new("boulder_adjustment", m.to_string()))?;
         let stretch_s = self.view_bias.stretch_s;
         if !(stretch_s.is_finite() && stretch_s >= 1.0) {
             return Err(ConfigError::new(

@@ -121,70 +121,22 @@ pub fn fit_lander(
     if points_rover.len() < config.min_points {
         return None;
     }
-    let h = config.half_extent_m;
     let c = guess.translation.vector.xy();
-    // per point: world position (guess), horizontal ray direction and range
-    let placed: Vec<(nalgebra::Vector2<f64>, nalgebra::Vector2<f64>, f64)> = points_rover
+    let placed: Vec<PlacedPoint> = points_rover
         .iter()
-        .map(|p| {
-            let w = (guess * p).coords.xy();
-            let range = p.coords.norm();
-            let ray = (guess.rotation * p.coords).xy();
-            let ray = ray / ray.norm().max(1e-9);
-            (w, ray, range)
-        })
+        .map(|p| PlacedPoint::new(p, guess))
         .collect();
     // δ = (yaw, dx, dy) about the rover's position
     let mut delta = Vector3::<f64>::zeros();
     let mut info = Matrix3::<f64>::zeros();
     let mut used = [0usize; 4];
     for _ in 0..8 {
-        let (s, co) = delta[0].sin_cos();
-        let mut hess = Matrix3::zeros();
-        let mut grad = Vector3::zeros();
-        // each point's side at the current correction; sides with too few points left out
-        let associated: Vec<_> = placed
-            .iter()
-            .filter_map(|(w, ray, range)| {
-                let r = w - c;
-                let q = c
-                    + nalgebra::Vector2::new(delta[1], delta[2])
-                    + nalgebra::Vector2::new(co * r.x - s * r.y, s * r.x + co * r.y);
-                associate(&q, h, config).map(|(side, n)| (side, n, q, ray, *range))
-            })
-            .collect();
-        let mut per_side = [0usize; 4];
-        for a in &associated {
-            per_side[a.0] += 1;
-        }
-        used = [0; 4];
-        for (side, n, q, ray, range) in associated {
-            if per_side[side] < config.min_side_points {
-                continue;
-            }
-            let residual = n.dot(&q) - h;
-            let cos = n.dot(ray);
-            let sigma_d = config.stereo.depth_sigma_m(range);
-            let sigma_l = config.stereo.lateral_sigma_m(range);
-            let var = sigma_d * sigma_d * cos * cos
-                + sigma_l * sigma_l * (1.0 - cos * cos)
-                + config.sigma_floor_m * config.sigma_floor_m;
-            let sigma = var.sqrt();
-            let weight = if residual.abs() > config.huber_sigma * sigma {
-                config.huber_sigma * sigma / residual.abs()
-            } else {
-                1.0
-            } / var;
-            let lever = q - c;
-            let j = Vector3::new(n.x * -lever.y + n.y * lever.x, n.x, n.y);
-            hess += j * j.transpose() * weight;
-            grad += j * (residual * weight);
-            used[side] += 1;
-        }
-        let regularized = hess + Matrix3::identity() * config.regularization;
-        let step = regularized.cholesky()?.solve(&(-grad));
+        let normal = normal_equations(&placed, &delta, c, config);
+        used = normal.used;
+        let regularized = normal.hess + Matrix3::identity() * config.regularization;
+        let step = regularized.cholesky()?.solve(&(-normal.grad));
         delta += step;
-        info = hess;
+        info = normal.hess;
         if step.norm() < 1e-6 {
             break;
         }
@@ -203,8 +155,103 @@ pub fn fit_lander(
         Translation3::new(t.x + delta[1], t.y + delta[2], t.z),
         rotation,
     );
-    // world-frame information on (ω_z, v_x, v_y) → right perturbation ξ = (ω, v) of the fit:
-    // ω_world = R ω, Δt_world = R v
+    Some(LanderFit {
+        world_from_rover,
+        information: right_perturbation_information(&info, &rotation, config),
+        points,
+        sides: used.iter().filter(|&&u| u >= 2).count(),
+    })
+}
+
+/// A point placed in the world by the guess: horizontal position, horizontal ray direction
+/// and range.
+struct PlacedPoint {
+    p_world_xy: nalgebra::Vector2<f64>,
+    ray: nalgebra::Vector2<f64>,
+    range_m: f64,
+}
+
+impl PlacedPoint {
+    fn new(p_rover: &Point3<f64>, world_from_rover: &Isometry3<f64>) -> Self {
+        let ray = (world_from_rover.rotation * p_rover.coords).xy();
+        PlacedPoint {
+            p_world_xy: (world_from_rover * p_rover).coords.xy(),
+            ray: ray / ray.norm().max(1e-9),
+            range_m: p_rover.coords.norm(),
+        }
+    }
+}
+
+/// The Gauss–Newton system of one iteration, and the points used on each side.
+struct NormalEquations {
+    hess: Matrix3<f64>,
+    grad: Vector3<f64>,
+    used: [usize; 4],
+}
+
+/// The normal equations at correction `delta` (yaw, dx, dy about the rover's position
+/// `c`): each point on its side's plane (sides with too few points left out), weighted by
+/// the stereo noise along the side's normal and a Huber kernel.
+fn normal_equations(
+    placed: &[PlacedPoint],
+    delta: &Vector3<f64>,
+    c: nalgebra::Vector2<f64>,
+    config: &LanderFitConfig,
+) -> NormalEquations {
+    let h = config.half_extent_m;
+    let (s, co) = delta[0].sin_cos();
+    let mut hess = Matrix3::zeros();
+    let mut grad = Vector3::zeros();
+    // each point's side at the current correction
+    let associated: Vec<_> = placed
+        .iter()
+        .filter_map(|point| {
+            let r = point.p_world_xy - c;
+            let q = c
+                + nalgebra::Vector2::new(delta[1], delta[2])
+                + nalgebra::Vector2::new(co * r.x - s * r.y, s * r.x + co * r.y);
+            associate(&q, h, config).map(|(side, n)| (side, n, q, point))
+        })
+        .collect();
+    let mut per_side = [0usize; 4];
+    for a in &associated {
+        per_side[a.0] += 1;
+    }
+    let mut used = [0; 4];
+    for (side, n, q, point) in associated {
+        if per_side[side] < config.min_side_points {
+            continue;
+        }
+        let residual = n.dot(&q) - h;
+        let cos = n.dot(&point.ray);
+        let sigma_d = config.stereo.depth_sigma_m(point.range_m);
+        let sigma_l = config.stereo.lateral_sigma_m(point.range_m);
+        let var = sigma_d * sigma_d * cos * cos
+            + sigma_l * sigma_l * (1.0 - cos * cos)
+            + config.sigma_floor_m * config.sigma_floor_m;
+        let sigma = var.sqrt();
+        let weight = if residual.abs() > config.huber_sigma * sigma {
+            config.huber_sigma * sigma / residual.abs()
+        } else {
+            1.0
+        } / var;
+        let lever = q - c;
+        let j = Vector3::new(n.x * -lever.y + n.y * lever.x, n.x, n.y);
+        hess += j * j.transpose() * weight;
+        grad += j * (residual * weight);
+        used[side] += 1;
+    }
+    NormalEquations { hess, grad, used }
+}
+
+/// The fit's world-frame information on (ω_z, v_x, v_y) as information on the right
+/// perturbation ξ = (ω, v) of the fitted pose (rotation `rotation`): ω_world = R ω,
+/// Δt_world = R v.
+fn right_perturbation_information(
+    info: &Matrix3<f64>,
+    rotation: &UnitQuaternion<f64>,
+    config: &LanderFitConfig,
+) -> Matrix6<f64> {
     let mut info_world = Matrix6::identity() * config.regularization;
     let idx = [2usize, 3, 4];
     for a in 0..3 {
@@ -216,13 +263,7 @@ pub fn fit_lander(
     let mut b = Matrix6::zeros();
     b.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
     b.fixed_view_mut::<3, 3>(3, 3).copy_from(&r);
-    let information = b.transpose() * info_world * b;
-    Some(LanderFit {
-        world_from_rover,
-        information,
-        points,
-        sides: used.iter().filter(|&&u| u >= 2).count(),
-    })
+    b.transpose() * info_world * b
 }
 
 /// The side a horizontal world point `q` lies on: nearest side plane among those whose

@@ -17,6 +17,7 @@
 //! truth enters it.
 
 use super::check_numbers;
+use crate::field_error::FieldError;
 use crate::landmarks::estimate::median;
 use segloc_maps::Traverse;
 use serde::{Deserialize, Serialize};
@@ -57,7 +58,7 @@ impl Default for LanderStructureConfig {
 
 impl LanderStructureConfig {
     /// Check every field: a message naming the first bad one.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         check_numbers(
             &[
                 ("lander.half_extent_m", self.half_extent_m),
@@ -72,7 +73,10 @@ impl LanderStructureConfig {
         )?;
         if let Some(z) = self.ground_z_m {
             if !z.is_finite() {
-                return Err(format!("lander.ground_z_m must be a number, got {z}"));
+                return Err(FieldError::new(
+                    "lander.ground_z_m",
+                    format!("must be a number, got {z}"),
+                ));
             }
         }
         Ok(())
@@ -186,12 +190,17 @@ mod tests {
         assert!(bad
             .validate()
             .unwrap_err()
+            .to_string()
             .contains("lander.max_rock_height_m"));
         let bad = LanderStructureConfig {
             ground_z_m: Some(f64::NAN),
             ..LanderStructureConfig::default()
         };
-        assert!(bad.validate().unwrap_err().contains("lander.ground_z_m"));
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("lander.ground_z_m"));
         assert!(LanderStructureConfig::default().validate().is_ok());
     }
 }

@@ -23,6 +23,8 @@ pub mod score;
 pub mod traverse_views;
 pub mod tune;
 
+use crate::field_error::FieldError;
+
 pub use height_map::HeightMapBuilder;
 pub use lander_structure::LanderStructureConfig;
 pub use rock_evidence::{RockEvidence, RockEvidenceConfig};
@@ -32,13 +34,16 @@ pub use traverse_views::traverse_views;
 pub use tune::{cross_validate, sensitivity, CrossValidation, ThresholdResult};
 
 /// Every named value is a finite number above 0 (`positive`) or at least 0: the first one
-/// that is not, as a message naming it (for the configs' `validate`).
-pub(crate) fn check_numbers(fields: &[(&str, f64)], positive: bool) -> Result<(), String> {
+/// that is not, as an error naming it (for the configs' `validate`).
+pub(crate) fn check_numbers(fields: &[(&str, f64)], positive: bool) -> Result<(), FieldError> {
     for &(name, v) in fields {
         let ok = v.is_finite() && if positive { v > 0.0 } else { v >= 0.0 };
         if !ok {
             let kind = if positive { "positive" } else { "non-negative" };
-            return Err(format!("{name} must be a {kind} number, got {v}"));
+            return Err(FieldError::new(
+                name,
+                format!("must be a {kind} number, got {v}"),
+            ));
         }
     }
     Ok(())

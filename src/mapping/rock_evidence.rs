@@ -41,6 +41,7 @@
 use super::check_numbers;
 use super::lander_structure::{lander_ground_from, LanderStructureConfig};
 use super::traverse_views::traverse_views;
+use crate::field_error::FieldError;
 use crate::landmarks::{view_bias, FusionConfig};
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
@@ -107,7 +108,7 @@ impl Default for RockEvidenceConfig {
 
 impl RockEvidenceConfig {
     /// Check every field: a message naming the first bad one.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         check_numbers(
             &[
                 ("max_range_m", self.max_range_m),
@@ -127,15 +128,19 @@ impl RockEvidenceConfig {
             false,
         )?;
         if self.min_range_m >= self.max_range_m {
-            return Err(format!(
-                "min_range_m ({}) must be below max_range_m ({})",
-                self.min_range_m, self.max_range_m
+            return Err(FieldError::new(
+                "min_range_m",
+                format!(
+                    "({}) must be below max_range_m ({})",
+                    self.min_range_m, self.max_range_m
+                ),
             ));
         }
         if let Some(b) = self.view_bias_m {
             if !(b.is_finite() && b.abs() <= 0.5) {
-                return Err(format!(
-                    "view_bias_m must be a number within ±0.5 m, got {b}"
+                return Err(FieldError::new(
+                    "view_bias_m",
+                    format!("must be a number within ±0.5 m, got {b}"),
                 ));
             }
         }
@@ -588,7 +593,7 @@ mod tests {
     #[test]
     fn validate_names_the_bad_field() {
         assert!(RockEvidenceConfig::default().validate().is_ok());
-        let bad = |c: RockEvidenceConfig| c.validate().unwrap_err();
+        let bad = |c: RockEvidenceConfig| c.validate().unwrap_err().to_string();
         let d = RockEvidenceConfig::default;
         assert!(bad(RockEvidenceConfig {
             min_rate: -1.0,

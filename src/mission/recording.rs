@@ -8,7 +8,7 @@
 //! 1 runs from 0, session 2 starts where session 1 ended. Open the file with the viewer of
 //! the same version: `pip install rerun-sdk==0.36.3 && rerun mission.rrd`.
 
-use super::report::MissionOutput;
+use super::report::{Attempt, MissionOutput};
 use super::trace::{SessionTrace, TraceFrame, TraceRock};
 use nalgebra::{Isometry3, Point3};
 use rerun::RecordingStream;
@@ -186,6 +186,25 @@ fn log_session(
     offset_s: f64,
 ) -> rerun::RecordingStreamResult<()> {
     let root = format!("world/session{}", session.session);
+    log_rover_bodies(rec, &root)?;
+    let mut attempts = output
+        .report
+        .attempts
+        .iter()
+        .filter(|a| a.session == session.session)
+        .peekable();
+    for (k, frame) in session.frames.iter().enumerate() {
+        rec.set_duration_secs(TIMELINE, offset_s + frame.time_s);
+        log_frame(rec, &root, session, k)?;
+        while let Some(a) = attempts.next_if(|a| a.time_s <= frame.time_s + 1e-9) {
+            log_attempt(rec, a)?;
+        }
+    }
+    Ok(())
+}
+
+/// The two rover boxes of a session (true and estimated), static.
+fn log_rover_bodies(rec: &RecordingStream, root: &str) -> rerun::RecordingStreamResult<()> {
     for body in ["rover_true", "rover_estimate"] {
         rec.log_static(
             format!("{root}/{body}/body"),
@@ -200,6 +219,47 @@ fn log_session(
             }]),
         )?;
     }
+    Ok(())
+}
+
+/// Frame `k` of a session: the rover's poses, its detections, the position errors and,
+/// every few frames, the trajectory lines so far.
+fn log_frame(
+    rec: &RecordingStream,
+    root: &str,
+    session: &SessionTrace,
+    k: usize,
+) -> rerun::RecordingStreamResult<()> {
+    let frame = &session.frames[k];
+    rec.log(
+        format!("{root}/rover_true"),
+        &transform(&frame.world_from_rover_true),
+    )?;
+    rec.log(
+        format!("{root}/rover_estimate"),
+        &transform(&frame.world_from_rover_estimate),
+    )?;
+    rec.log(
+        format!("{root}/detections"),
+        &rerun::Points3D::new(frame.p_world_boulders.iter().map(point))
+            .with_radii([0.06f32])
+            .with_colors([rerun::Color::from_rgb(255, 60, 60)]),
+    )?;
+    let error = |p: &Isometry3<f64>| {
+        (p.translation.vector - frame.world_from_rover_true.translation.vector).norm()
+    };
+    rec.log(
+        format!("errors/session{}/estimate_m", session.session),
+        &rerun::Scalars::new([error(&frame.world_from_rover_estimate)]),
+    )?;
+    rec.log(
+        format!("errors/session{}/odometry_m", session.session),
+        &rerun::Scalars::new([error(&frame.world_from_rover_odometry)]),
+    )?;
+    let last = k + 1 == session.frames.len();
+    if k % TRAJECTORY_EVERY_FRAMES != 0 && !last {
+        return Ok(());
+    }
     let lines: [(&str, [u8; 3], PoseOf); 3] = [
         ("trajectory_true", [60, 60, 60], |f| f.world_from_rover_true),
         ("trajectory_estimate", [30, 120, 255], |f| {
@@ -209,81 +269,46 @@ fn log_session(
             f.world_from_rover_odometry
         }),
     ];
-    let mut attempts = output
-        .report
-        .attempts
-        .iter()
-        .filter(|a| a.session == session.session)
-        .peekable();
-    for (k, frame) in session.frames.iter().enumerate() {
-        rec.set_duration_secs(TIMELINE, offset_s + frame.time_s);
+    for (name, rgb, pose) in &lines {
         rec.log(
-            format!("{root}/rover_true"),
-            &transform(&frame.world_from_rover_true),
+            format!("{root}/{name}"),
+            &rerun::LineStrips3D::new([strip(&session.frames[..=k], pose)])
+                .with_radii([0.03f32])
+                .with_colors([rerun::Color::from_rgb(rgb[0], rgb[1], rgb[2])]),
         )?;
-        rec.log(
-            format!("{root}/rover_estimate"),
-            &transform(&frame.world_from_rover_estimate),
-        )?;
-        rec.log(
-            format!("{root}/detections"),
-            &rerun::Points3D::new(frame.p_world_boulders.iter().map(point))
-                .with_radii([0.06f32])
-                .with_colors([rerun::Color::from_rgb(255, 60, 60)]),
-        )?;
-        let error = |p: &Isometry3<f64>| {
-            (p.translation.vector - frame.world_from_rover_true.translation.vector).norm()
-        };
-        rec.log(
-            format!("errors/session{}/estimate_m", session.session),
-            &rerun::Scalars::new([error(&frame.world_from_rover_estimate)]),
-        )?;
-        rec.log(
-            format!("errors/session{}/odometry_m", session.session),
-            &rerun::Scalars::new([error(&frame.world_from_rover_odometry)]),
-        )?;
-        let last = k + 1 == session.frames.len();
-        if k % TRAJECTORY_EVERY_FRAMES == 0 || last {
-            for (name, rgb, pose) in &lines {
-                rec.log(
-                    format!("{root}/{name}"),
-                    &rerun::LineStrips3D::new([strip(&session.frames[..=k], pose)])
-                        .with_radii([0.03f32])
-                        .with_colors([rerun::Color::from_rgb(rgb[0], rgb[1], rgb[2])]),
-                )?;
-            }
-        }
-        while let Some(a) = attempts.next_if(|a| a.time_s <= frame.time_s + 1e-9) {
-            let text = if a.accepted {
-                format!(
-                    "session {} t={:.0} s: accepted, {} inliers, error {:.1} cm / {:.2}°{}",
-                    a.session,
-                    a.time_s,
-                    a.inliers,
-                    100.0 * a.error_m.unwrap_or(f64::NAN),
-                    a.error_deg.unwrap_or(f64::NAN),
-                    if a.wrong { " (WRONG)" } else { "" }
-                )
-            } else {
-                format!(
-                    "session {} t={:.0} s: refused ({})",
-                    a.session,
-                    a.time_s,
-                    a.refusal
-                        .as_ref()
-                        .map_or_else(|| "no reason".to_string(), |r| r.to_string())
-                )
-            };
-            let level = match (a.accepted, a.wrong) {
-                (true, false) => rerun::TextLogLevel::INFO,
-                (true, true) => rerun::TextLogLevel::ERROR,
-                (false, _) => rerun::TextLogLevel::WARN,
-            };
-            rec.log(
-                "relocalizations",
-                &rerun::TextLog::new(text).with_level(level),
-            )?;
-        }
     }
     Ok(())
+}
+
+/// A relocalization attempt in the text log: accepted (an error when wrong) or refused.
+fn log_attempt(rec: &RecordingStream, a: &Attempt) -> rerun::RecordingStreamResult<()> {
+    let text = if a.accepted {
+        format!(
+            "session {} t={:.0} s: accepted, {} inliers, error {:.1} cm / {:.2}°{}",
+            a.session,
+            a.time_s,
+            a.inliers,
+            100.0 * a.error_m.unwrap_or(f64::NAN),
+            a.error_deg.unwrap_or(f64::NAN),
+            if a.wrong { " (WRONG)" } else { "" }
+        )
+    } else {
+        format!(
+            "session {} t={:.0} s: refused ({})",
+            a.session,
+            a.time_s,
+            a.refusal
+                .as_ref()
+                .map_or_else(|| "no reason".to_string(), |r| r.to_string())
+        )
+    };
+    let level = match (a.accepted, a.wrong) {
+        (true, false) => rerun::TextLogLevel::INFO,
+        (true, true) => rerun::TextLogLevel::ERROR,
+        (false, _) => rerun::TextLogLevel::WARN,
+    };
+    rec.log(
+        "relocalizations",
+        &rerun::TextLog::new(text).with_level(level),
+    )
 }

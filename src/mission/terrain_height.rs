@@ -99,22 +99,72 @@ pub fn height_corrections(
     if !config.enabled || config.cell_m <= 0.0 {
         return zeros();
     }
-    let spacing = config.knot_spacing_frames.max(1);
-    // knots per session: ceil((frames - 1) / spacing) + 1
-    let mut first_knots = Vec::new();
-    let mut n_knots = 0;
-    for (_, poses) in sessions {
-        first_knots.push(n_knots);
-        n_knots += poses.len().saturating_sub(1).div_ceil(spacing) + 1;
-    }
-    if n_knots == 0 {
+    let knots = Knots::new(sessions, config.knot_spacing_frames.max(1));
+    if knots.count == 0 {
         return zeros();
     }
+    let cells = overlapping_cells(sessions, &knots, config);
+    let Some(dz) = solve_reweighted(sessions, &cells, &knots, config) else {
+        return zeros();
+    };
+    sessions
+        .iter()
+        .enumerate()
+        .map(|(s, (_, poses))| {
+            (0..poses.len())
+                .map(|k| {
+                    let (knot, frac) = knots.of_frame(s, k, poses.len());
+                    interpolate(&dz, knot, frac)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The knots of all sessions, numbered globally in session order.
+struct Knots {
+    /// Frames between knots.
+    spacing: usize,
+    /// The first knot of each session.
+    first: Vec<usize>,
+    /// Knots in all.
+    count: usize,
+}
+
+impl Knots {
+    /// Per session: ceil((frames - 1) / spacing) + 1 knots.
+    fn new(sessions: &[(&SessionLog, &[Isometry3<f64>])], spacing: usize) -> Self {
+        let mut first = Vec::new();
+        let mut count = 0;
+        for (_, poses) in sessions {
+            first.push(count);
+            count += poses.len().saturating_sub(1).div_ceil(spacing) + 1;
+        }
+        Knots {
+            spacing,
+            first,
+            count,
+        }
+    }
+
+    /// Knot weights of frame `k` of session `s` (of `frames` frames).
+    fn of_frame(&self, s: usize, k: usize, frames: usize) -> (usize, f64) {
+        let last_knot = self.first[s] + frames.saturating_sub(1).div_ceil(self.spacing);
+        knot_of(k, self.spacing, self.first[s], last_knot)
+    }
+}
+
+/// The ground points in range, by cell, of the cells seen by frames far enough apart (on
+/// different knots) to tell anything beyond the odometry.
+fn overlapping_cells(
+    sessions: &[(&SessionLog, &[Isometry3<f64>])],
+    knots: &Knots,
+    config: &TerrainHeightConfig,
+) -> Vec<Vec<Sample>> {
     let mut cells: HashMap<(i64, i64), Vec<Sample>> = HashMap::new();
     for (s, (log, poses)) in sessions.iter().enumerate() {
-        let last_knot = first_knots[s] + poses.len().saturating_sub(1).div_ceil(spacing);
         for (k, (frame, pose)) in log.frames.iter().zip(poses.iter()).enumerate() {
-            let (knot, frac) = knot_of(k, spacing, first_knots[s], last_knot);
+            let (knot, frac) = knots.of_frame(s, k, poses.len());
             for g in &frame.ground {
                 let range = g.p_rover.coords.xy().norm();
                 if range > config.max_range_m {
@@ -135,8 +185,7 @@ pub fn height_corrections(
             }
         }
     }
-    // only cells seen by frames far enough apart to tell anything beyond the odometry
-    let cells: Vec<Vec<Sample>> = cells
+    cells
         .into_values()
         .filter(|c| {
             let (lo, hi) = c.iter().fold((usize::MAX, 0), |(lo, hi), s| {
@@ -144,7 +193,18 @@ pub fn height_corrections(
             });
             hi > lo
         })
-        .collect();
+        .collect()
+}
+
+/// The knots' corrections: solve, then reweight every point (Huber on its residual against
+/// its cell's mean), `rounds` times; `None` when the system is singular.
+fn solve_reweighted(
+    sessions: &[(&SessionLog, &[Isometry3<f64>])],
+    cells: &[Vec<Sample>],
+    knots: &Knots,
+    config: &TerrainHeightConfig,
+) -> Option<DVector<f64>> {
+    let n_knots = knots.count;
     let mut robust: Vec<Vec<f64>> = cells.iter().map(|c| vec![1.0; c.len()]).collect();
     let mut dz = DVector::zeros(n_knots);
     for _ in 0..config.rounds.max(1) {
@@ -153,44 +213,37 @@ pub fn height_corrections(
         for (cell, rw) in cells.iter().zip(&robust) {
             accumulate_cell(cell, rw, &mut h, &mut b);
         }
-        add_priors(sessions, &first_knots, spacing, config, &mut h, &mut b);
-        let Some(chol) = h.cholesky() else {
-            return zeros();
-        };
-        dz = chol.solve(&(-b));
-        // reweight: Huber on each point's residual against its cell's mean
+        add_priors(
+            sessions,
+            &knots.first,
+            knots.spacing,
+            config,
+            &mut h,
+            &mut b,
+        );
+        dz = h.cholesky()?.solve(&(-b));
         for (cell, rw) in cells.iter().zip(robust.iter_mut()) {
-            let value = |s: &Sample| s.z + interpolate(&dz, s.knot, s.frac);
-            let (sw, swz) = cell
-                .iter()
-                .zip(rw.iter())
-                .fold((0.0, 0.0), |(a, b), (s, r)| {
-                    (a + s.weight * r, b + s.weight * r * value(s))
-                });
-            let mean = swz / sw.max(1e-12);
-            for (s, r) in cell.iter().zip(rw.iter_mut()) {
-                let e = (value(s) - mean).abs() * s.weight.sqrt();
-                *r = if e <= config.huber_k {
-                    1.0
-                } else {
-                    config.huber_k / e
-                };
-            }
+            huber_weights(cell, &dz, config.huber_k, rw);
         }
     }
-    sessions
+    Some(dz)
+}
+
+/// Huber weights (threshold `huber_k` point σ) of a cell's points on their residuals
+/// against the cell's mean corrected height (weighted by the current weights `rw`).
+fn huber_weights(cell: &[Sample], dz: &DVector<f64>, huber_k: f64, rw: &mut [f64]) {
+    let value = |s: &Sample| s.z + interpolate(dz, s.knot, s.frac);
+    let (sw, swz) = cell
         .iter()
-        .enumerate()
-        .map(|(s, (_, poses))| {
-            let last_knot = first_knots[s] + poses.len().saturating_sub(1).div_ceil(spacing);
-            (0..poses.len())
-                .map(|k| {
-                    let (knot, frac) = knot_of(k, spacing, first_knots[s], last_knot);
-                    interpolate(&dz, knot, frac)
-                })
-                .collect()
-        })
-        .collect()
+        .zip(rw.iter())
+        .fold((0.0, 0.0), |(a, b), (s, r)| {
+            (a + s.weight * r, b + s.weight * r * value(s))
+        });
+    let mean = swz / sw.max(1e-12);
+    for (s, r) in cell.iter().zip(rw.iter_mut()) {
+        let e = (value(s) - mean).abs() * s.weight.sqrt();
+        *r = if e <= huber_k { 1.0 } else { huber_k / e };
+    }
 }
 
 fn interpolate(dz: &DVector<f64>, knot: usize, frac: f64) -> f64 {

@@ -11,9 +11,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::ground::{height_above_ground, GroundConfig};
+use nalgebra::Point3;
+
+use super::ground::{height_above_ground, GroundConfig, HeightMap};
 use super::segmenter::{SegmentInput, Segmenter};
-use super::{Mask, PerceptionError};
+use super::{DisparityMap, Mask, PerceptionError};
 
 /// Settings of the geometric segmenter.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -120,28 +122,11 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         return Vec::new();
     };
     let (w, h) = (disparity.width, disparity.height);
-    let scale = disparity.scale;
-    // intensity at the disparity map's resolution (mean of each block)
-    let intensity: Vec<u8> = if scale == 1 {
-        input.left.data.clone()
-    } else {
-        let mut out = vec![0u8; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = 0u32;
-                for dy in 0..scale {
-                    for dx in 0..scale {
-                        s += input.left.get(x * scale + dx, y * scale + dy) as u32;
-                    }
-                }
-                out[y * w + x] = (s / (scale * scale) as u32) as u8;
-            }
-        }
-        out
-    };
-    let threshold = |base: f64, i: usize| {
-        let z = heights.depth_m[i] as f64;
-        (base + config.height_per_range * z) as f32
+    let scene = Scene {
+        config,
+        disparity,
+        heights: &heights,
+        intensity: intensity_at_disparity_scale(input),
     };
     let hag = &heights.above_ground_m;
     let structure_peak = if config.reject_touching_structures {
@@ -150,7 +135,7 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
             &disparity.data,
             w,
             h,
-            |i| threshold(config.grow_height_m, i),
+            |i| scene.threshold(config.grow_height_m, i),
             config,
         )
     } else {
@@ -161,21 +146,11 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
     let mut stack = Vec::new();
     let mut region = Vec::new();
     for seed in 0..w * h {
-        let is_seed = hag[seed] > threshold(config.seed_height_m, seed);
+        let is_seed = hag[seed] > scene.threshold(config.seed_height_m, seed);
         if label[seed] != u32::MAX || !is_seed {
             continue;
         }
         let id = masks.len() as u32 + 1;
-        let cam = &disparity.camera;
-        let point = |p: usize| {
-            let z = heights.depth_m[p] as f64;
-            cam.back_project((p % w) as f64, (p / w) as f64, z)
-        };
-        let seed_point = point(seed);
-        let max_extent2 = config.max_extent_m * config.max_extent_m;
-        region.clear();
-        label[seed] = id;
-        stack.push(seed);
         let touches_structure = structure_peak[seed] > config.max_height_m as f32
             || (config.reject_touching_structures
                 && near_structure(
@@ -186,10 +161,103 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
                     &disparity.camera,
                     config,
                 ));
+        scene.grow(seed, id, &mut label, &mut stack, &mut region);
+        if region.len() < config.min_region_px
+            || (touches_structure && config.reject_touching_structures)
+        {
+            masks.push(None);
+            continue;
+        }
+        extend_down_face(
+            &mut region,
+            &mut label,
+            id,
+            hag,
+            &disparity.data,
+            (w, h),
+            scene.foot_rows(seed),
+            config,
+        );
+        let mask = scene.boulder_score(&region, seed).and_then(|score| {
+            let pixels: Vec<(usize, usize)> = region.iter().map(|&p| (p % w, p / w)).collect();
+            Mask::from_pixels(&pixels, score).map(|m| m.upscaled(disparity.scale))
+        });
+        masks.push(mask);
+    }
+    masks.into_iter().flatten().collect()
+}
+
+/// The left image's intensity at the disparity map's resolution (mean of each block).
+fn intensity_at_disparity_scale(input: &SegmentInput<'_>) -> Vec<u8> {
+    let disparity = input.disparity;
+    let (w, h) = (disparity.width, disparity.height);
+    let scale = disparity.scale;
+    if scale == 1 {
+        return input.left.data.clone();
+    }
+    let mut out = vec![0u8; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let mut s = 0u32;
+            for dy in 0..scale {
+                for dx in 0..scale {
+                    s += input.left.get(x * scale + dx, y * scale + dy) as u32;
+                }
+            }
+            out[y * w + x] = (s / (scale * scale) as u32) as u8;
+        }
+    }
+    out
+}
+
+/// What the segmenter reads at every pixel of the disparity map.
+struct Scene<'a> {
+    config: &'a GeometricConfig,
+    disparity: &'a DisparityMap,
+    heights: &'a HeightMap,
+    /// The left image at the disparity map's resolution.
+    intensity: Vec<u8>,
+}
+
+impl Scene<'_> {
+    /// A height threshold (`base` metres at zero range) at pixel `i`'s range.
+    fn threshold(&self, base: f64, i: usize) -> f32 {
+        let z = self.heights.depth_m[i] as f64;
+        (base + self.config.height_per_range * z) as f32
+    }
+
+    /// Pixel `p` in 3D, camera frame.
+    fn point(&self, p: usize) -> Point3<f64> {
+        let w = self.disparity.width;
+        let z = self.heights.depth_m[p] as f64;
+        self.disparity
+            .camera
+            .back_project((p % w) as f64, (p / w) as f64, z)
+    }
+
+    /// Grows the region of `seed` (labelled `id`) into `region`: neighbours above the grow
+    /// threshold, at a similar disparity and within `max_extent_m` of the seed.
+    fn grow(
+        &self,
+        seed: usize,
+        id: u32,
+        label: &mut [u32],
+        stack: &mut Vec<usize>,
+        region: &mut Vec<usize>,
+    ) {
+        let config = self.config;
+        let (w, h) = (self.disparity.width, self.disparity.height);
+        let data = &self.disparity.data;
+        let hag = &self.heights.above_ground_m;
+        let seed_point = self.point(seed);
+        let max_extent2 = config.max_extent_m * config.max_extent_m;
+        region.clear();
+        label[seed] = id;
+        stack.push(seed);
         while let Some(p) = stack.pop() {
             region.push(p);
             let (px, py) = ((p % w) as isize, (p / w) as isize);
-            let dp = disparity.data[p];
+            let dp = data[p];
             let tol = (config.connect_disparity_frac as f32 * dp).max(0.75);
             for dy in -1..=1isize {
                 for dx in -1..=1isize {
@@ -199,9 +267,9 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
                     }
                     let q = qy as usize * w + qx as usize;
                     if label[q] == u32::MAX
-                        && hag[q] > threshold(config.grow_height_m, q)
-                        && (disparity.data[q] - dp).abs() <= tol
-                        && (point(q) - seed_point).norm_squared() <= max_extent2
+                        && hag[q] > self.threshold(config.grow_height_m, q)
+                        && (data[q] - dp).abs() <= tol
+                        && (self.point(q) - seed_point).norm_squared() <= max_extent2
                     {
                         label[q] = id;
                         stack.push(q);
@@ -209,47 +277,43 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
                 }
             }
         }
-        if region.len() < config.min_region_px
-            || (touches_structure && config.reject_touching_structures)
-        {
-            masks.push(None);
-            continue;
-        }
-        let z_seed = heights.depth_m[seed] as f64;
-        let foot_rows = (threshold(config.grow_height_m, seed) as f64 * disparity.camera.fy
+    }
+
+    /// Rows below a region (seeded at `seed`) its foot may reach: the grow threshold's
+    /// height at the seed's range, in rows, plus one.
+    fn foot_rows(&self, seed: usize) -> usize {
+        let z_seed = self.heights.depth_m[seed] as f64;
+        (self.threshold(self.config.grow_height_m, seed) as f64 * self.disparity.camera.fy
             / z_seed.max(0.1))
         .ceil() as usize
-            + 1;
-        extend_down_face(
-            &mut region,
-            &mut label,
-            id,
-            hag,
-            &disparity.data,
-            (w, h),
-            foot_rows,
-            config,
-        );
+            + 1
+    }
+
+    /// The score of a grown region as a boulder, or `None` when it is no boulder: too high,
+    /// floating, under a structure, or lying in hard shadow without a lit face.
+    fn boulder_score(&self, region: &[usize], seed: usize) -> Option<f32> {
+        let config = self.config;
+        let hag = &self.heights.above_ground_m;
+        let intensity = &self.intensity;
         let peak = region.iter().map(|&p| hag[p]).fold(f32::MIN, f32::max) as f64;
         let base = region.iter().map(|&p| hag[p]).fold(f32::MAX, f32::min) as f64;
-        let shadow = region
-            .iter()
-            .filter(|&&p| intensity[p] < config.shadow_level)
-            .count() as f64
-            / region.len() as f64;
-        let lit = region
-            .iter()
-            .filter(|&&p| intensity[p] > config.sunlit_level)
-            .count() as f64
-            / region.len() as f64;
+        let fraction = |keep: &dyn Fn(u8) -> bool| {
+            region.iter().filter(|&&p| keep(intensity[p])).count() as f64 / region.len() as f64
+        };
+        let shadow = fraction(&|v| v < config.shadow_level);
+        let lit = fraction(&|v| v > config.sunlit_level);
+        let (w, data, camera) = (
+            self.disparity.width,
+            &self.disparity.data,
+            &self.disparity.camera,
+        );
         if peak > config.max_height_m
             || base > config.max_base_height_m
             || (config.reject_touching_structures
-                && under_structure(&region, hag, &disparity.data, w, &disparity.camera, config))
+                && under_structure(region, hag, data, w, camera, config))
             || (shadow > config.max_shadow_fraction && lit < config.min_sunlit_fraction)
         {
-            masks.push(None);
-            continue;
+            return None;
         }
         // sunlit face: a clearly brighter part than the region's median
         let mut values: Vec<u8> = region.iter().map(|&p| intensity[p]).collect();
@@ -260,15 +324,13 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
             .filter(|&&v| v as f64 > 1.3 * median as f64 + 10.0)
             .count() as f64
             / values.len() as f64;
-        let z = heights.depth_m[seed] as f64;
+        let z = self.heights.depth_m[seed] as f64;
         let prominence = peak / (config.seed_height_m + config.height_per_range * z);
         let score = ((0.4 + 0.15 * prominence.min(4.0) + 0.3 * (sunlit * 4.0).min(1.0))
             * (1.0 - shadow).max(lit))
         .clamp(0.0, 1.0);
-        let pixels: Vec<(usize, usize)> = region.iter().map(|&p| (p % w, p / w)).collect();
-        masks.push(Mask::from_pixels(&pixels, score as f32).map(|m| m.upscaled(scale)));
+        Some(score as f32)
     }
-    masks.into_iter().flatten().collect()
 }
 
 /// Whether something higher than `max_height_m` stands within half a metre (in the image,

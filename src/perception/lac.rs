@@ -232,15 +232,55 @@ impl LacRecording {
     }
 }
 
-fn parse_frames(text: &str) -> Result<Vec<LacFrame>, String> {
+/// What is wrong with a CSV member of a `.lac` archive (the reader adds the member's name).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum LacCsvError {
+    /// No header line.
+    #[error("empty file")]
+    Empty,
+    /// The header has no `frame` column.
+    #[error("no `frame` column")]
+    NoFrameColumn,
+    /// A line has a different number of fields than the header.
+    #[error("line {line}: {found} fields, header has {expected}")]
+    FieldCount {
+        /// Line number (1-based).
+        line: usize,
+        /// Fields on the line.
+        found: usize,
+        /// Fields in the header.
+        expected: usize,
+    },
+    /// A field that must be a number is not.
+    #[error("line {line}: `{text}` is not a number")]
+    NotANumber {
+        /// Line number (1-based).
+        line: usize,
+        /// The field.
+        text: String,
+    },
+    /// A frame number of `frames.csv` is not a non-negative integer.
+    #[error("line {line}: bad frame `{text}`")]
+    BadFrame {
+        /// Line number (1-based).
+        line: usize,
+        /// The field.
+        text: String,
+    },
+    /// A frame number of a camera's frame list is not a non-negative integer.
+    #[error("bad frame `{0}`")]
+    BadCameraFrame(String),
+}
+
+fn parse_frames(text: &str) -> Result<Vec<LacFrame>, LacCsvError> {
     let mut lines = text
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or("empty file")?;
+    let (_, header) = lines.next().ok_or(LacCsvError::Empty)?;
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     let col = |names: &[&str]| cols.iter().position(|c| names.contains(c));
-    let frame_col = col(&["frame"]).ok_or("no `frame` column")?;
+    let frame_col = col(&["frame"]).ok_or(LacCsvError::NoFrameColumn)?;
     let time_col = col(&["time", "timestamp", "mission_time"]);
     let pose_cols: Option<Vec<usize>> = ["x", "y", "z", "roll", "pitch", "yaw"]
         .iter()
@@ -256,21 +296,26 @@ fn parse_frames(text: &str) -> Result<Vec<LacFrame>, String> {
     for (i, line) in lines {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         if fields.len() != cols.len() {
-            return Err(format!(
-                "line {}: {} fields, header has {}",
-                i + 1,
-                fields.len(),
-                cols.len()
-            ));
+            return Err(LacCsvError::FieldCount {
+                line: i + 1,
+                found: fields.len(),
+                expected: cols.len(),
+            });
         }
-        let num = |c: usize| -> Result<f64, String> {
+        let num = |c: usize| -> Result<f64, LacCsvError> {
             fields[c]
                 .parse::<f64>()
-                .map_err(|_| format!("line {}: `{}` is not a number", i + 1, fields[c]))
+                .map_err(|_| LacCsvError::NotANumber {
+                    line: i + 1,
+                    text: fields[c].to_string(),
+                })
         };
         let frame = fields[frame_col]
             .parse::<u64>()
-            .map_err(|_| format!("line {}: bad frame `{}`", i + 1, fields[frame_col]))?;
+            .map_err(|_| LacCsvError::BadFrame {
+                line: i + 1,
+                text: fields[frame_col].to_string(),
+            })?;
         let time_s = time_col.map(num).transpose()?.filter(|t| t.is_finite());
         let pose = match &pose_cols {
             Some(c) => {
@@ -304,17 +349,18 @@ fn parse_frames(text: &str) -> Result<Vec<LacFrame>, String> {
     Ok(out)
 }
 
-fn parse_camera_frames(text: &str) -> Result<Vec<u64>, String> {
+fn parse_camera_frames(text: &str) -> Result<Vec<u64>, LacCsvError> {
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let header = lines.next().ok_or("empty file")?;
+    let header = lines.next().ok_or(LacCsvError::Empty)?;
     let c = header
         .split(',')
         .position(|h| h.trim() == "frame")
-        .ok_or("no `frame` column")?;
+        .ok_or(LacCsvError::NoFrameColumn)?;
     lines
         .map(|l| {
             let f = l.split(',').nth(c).unwrap_or("").trim();
-            f.parse::<u64>().map_err(|_| format!("bad frame `{f}`"))
+            f.parse::<u64>()
+                .map_err(|_| LacCsvError::BadCameraFrame(f.to_string()))
         })
         .collect()
 }

@@ -339,11 +339,37 @@ impl Navigator {
             // look all around before the first move
             self.initial_scan = false;
             self.in_initial_scan = true;
-            self.mode = NavMode::Scan;
-            self.mode_until_s = time_s + full_turn_s;
-            self.turn_sign = if bearing >= 0.0 { 1.0 } else { -1.0 };
+            self.start_scan(time_s + full_turn_s, bearing);
         }
-        // manoeuvres in progress
+        if let Some(command) = self.manoeuvre(time_s, pose, goal, &scene, full_turn_s) {
+            return command;
+        }
+        if let Some(command) = self.glance_step(time_s, pose, session_from_nav * Point2::origin()) {
+            return command;
+        }
+        if let Some(command) = self.stall_check(time_s, here, progress, &scene) {
+            return command;
+        }
+        self.steer(time_s, pose, (goal, bearing), &scene, full_turn_s)
+    }
+
+    /// Enters the scan mode until `until_s`, turning towards the goal's side.
+    fn start_scan(&mut self, until_s: f64, bearing: f64) {
+        self.mode = NavMode::Scan;
+        self.mode_until_s = until_s;
+        self.turn_sign = if bearing >= 0.0 { 1.0 } else { -1.0 };
+    }
+
+    /// The manoeuvres in progress: backing up (then scanning), and scanning for a free arc;
+    /// `None` when none is (or the initial look around just ended).
+    fn manoeuvre(
+        &mut self,
+        time_s: f64,
+        pose: Pose2,
+        goal: Point2<f64>,
+        scene: &Scene<'_>,
+        full_turn_s: f64,
+    ) -> Option<Command> {
         if self.mode == NavMode::Backup {
             let back = Pose2::new(pose.x, pose.y, pose.yaw + std::f64::consts::PI);
             let speed = self.config.backup_speed_mps;
@@ -353,52 +379,76 @@ impl Navigator {
             };
             let back_scene = Scene {
                 seen: None,
-                ..scene
+                ..*scene
             };
             if time_s < self.mode_until_s && check.arc_is_free(back, speed, 0.0, &back_scene) {
-                return Command {
+                return Some(Command {
                     speed_mps: -speed,
                     yaw_rate_rps: 0.0,
-                };
+                });
             }
             self.mode = NavMode::Scan;
             self.mode_until_s = time_s + full_turn_s;
         }
         if self.mode == NavMode::Scan {
-            let initial = self.in_initial_scan;
-            if time_s < self.mode_until_s {
-                // leave as soon as an arc is free (except during the first look around)
-                if !initial || time_s + 1e-9 >= self.mode_until_s {
-                    if let Some(arc) = self.config.arcs.choose(pose, goal, &scene) {
-                        self.mode = NavMode::Drive;
-                        self.in_initial_scan = false;
-                        // follow the way out for a while before turning back to the goal
-                        self.commit_until_s = time_s + self.config.commit_after_scan_s;
-                        self.progress.clear();
-                        return Command {
-                            speed_mps: arc.speed_mps,
-                            yaw_rate_rps: arc.yaw_rate_rps,
-                        };
-                    }
-                }
-                return Command {
-                    speed_mps: 0.0,
-                    yaw_rate_rps: self.turn_sign * self.config.point_turn_rate_rps,
-                };
-            }
-            if !initial {
-                return self.start_backup(time_s);
-            }
-            self.in_initial_scan = false;
-            self.mode = NavMode::Drive;
-            self.progress.clear();
+            return self.scan(time_s, pose, goal, scene);
         }
+        None
+    }
+
+    /// One cycle of the scan: turn in place until an arc is free (except during the first
+    /// look around), back up when the scan ends without one; `None` when the initial look
+    /// around ends (the rover drives on).
+    fn scan(
+        &mut self,
+        time_s: f64,
+        pose: Pose2,
+        goal: Point2<f64>,
+        scene: &Scene<'_>,
+    ) -> Option<Command> {
+        let initial = self.in_initial_scan;
+        if time_s < self.mode_until_s {
+            // leave as soon as an arc is free (except during the first look around)
+            if !initial || time_s + 1e-9 >= self.mode_until_s {
+                if let Some(arc) = self.config.arcs.choose(pose, goal, scene) {
+                    self.mode = NavMode::Drive;
+                    self.in_initial_scan = false;
+                    // follow the way out for a while before turning back to the goal
+                    self.commit_until_s = time_s + self.config.commit_after_scan_s;
+                    self.progress.clear();
+                    return Some(Command {
+                        speed_mps: arc.speed_mps,
+                        yaw_rate_rps: arc.yaw_rate_rps,
+                    });
+                }
+            }
+            return Some(Command {
+                speed_mps: 0.0,
+                yaw_rate_rps: self.turn_sign * self.config.point_turn_rate_rps,
+            });
+        }
+        if !initial {
+            return Some(self.start_backup(time_s));
+        }
+        self.in_initial_scan = false;
+        self.mode = NavMode::Drive;
+        self.progress.clear();
+        None
+    }
+
+    /// A glance at the lander (at `lander_centre`, session frame) while driving: its
+    /// command while it lasts.
+    fn glance_step(
+        &mut self,
+        time_s: f64,
+        pose: Pose2,
+        lander_centre: Point2<f64>,
+    ) -> Option<Command> {
         let may_glance = matches!(self.mode, NavMode::Drive | NavMode::Glance);
-        let lander_centre = session_from_nav * Point2::origin();
         match self.glance.step(time_s, pose, lander_centre, may_glance) {
             GlanceStep::Active(command) => {
                 self.mode = NavMode::Glance;
-                return command;
+                return Some(command);
             }
             GlanceStep::Finished { duration_s } => {
                 // the glance's time counts neither against the waypoint nor as a stall
@@ -408,18 +458,42 @@ impl Navigator {
             }
             GlanceStep::Idle => {}
         }
-        // stall: no progress over the window
+        None
+    }
+
+    /// A stall (no `progress` over the window): a route around on the first one for this
+    /// waypoint, else a backup (its command).
+    fn stall_check(
+        &mut self,
+        time_s: f64,
+        here: Point2<f64>,
+        progress: f64,
+        scene: &Scene<'_>,
+    ) -> Option<Command> {
         self.progress.push((time_s, progress));
         let window = self.config.stall_window_s;
         self.progress.retain(|&(t, _)| time_s - t <= window);
         if let Some(&(t0, p0)) = self.progress.first() {
             if time_s - t0 >= window * 0.95 && progress - p0 < self.config.stall_progress_m {
                 // a first stall on the way to this waypoint: look for a route around
-                if self.route.is_some() || !self.plan_route_or_skip(time_s, here, &scene) {
-                    return self.start_backup(time_s);
+                if self.route.is_some() || !self.plan_route_or_skip(time_s, here, scene) {
+                    return Some(self.start_backup(time_s));
                 }
             }
         }
+        None
+    }
+
+    /// Towards the goal (at `bearing` from the heading): a point turn when it lies too far
+    /// aside (and no way out is being followed), else the best free arc, else a scan.
+    fn steer(
+        &mut self,
+        time_s: f64,
+        pose: Pose2,
+        (goal, bearing): (Point2<f64>, f64),
+        scene: &Scene<'_>,
+        full_turn_s: f64,
+    ) -> Command {
         let committed = time_s < self.commit_until_s;
         if !committed
             && (bearing.abs() > self.config.point_turn_threshold_rad
@@ -431,7 +505,7 @@ impl Navigator {
                 yaw_rate_rps: bearing.signum() * self.config.point_turn_rate_rps,
             };
         }
-        match self.config.arcs.choose(pose, goal, &scene) {
+        match self.config.arcs.choose(pose, goal, scene) {
             Some(arc) => {
                 self.mode = NavMode::Drive;
                 Command {
@@ -442,11 +516,9 @@ impl Navigator {
             None => {
                 // nothing free ahead: a route to steer along, and look around for a way
                 if self.route.is_none() {
-                    self.plan_route_or_skip(time_s, here, &scene);
+                    self.plan_route_or_skip(time_s, Point2::new(pose.x, pose.y), scene);
                 }
-                self.mode = NavMode::Scan;
-                self.mode_until_s = time_s + full_turn_s;
-                self.turn_sign = if bearing >= 0.0 { 1.0 } else { -1.0 };
+                self.start_scan(time_s + full_turn_s, bearing);
                 Command {
                     speed_mps: 0.0,
                     yaw_rate_rps: self.turn_sign * self.config.point_turn_rate_rps,

@@ -13,6 +13,7 @@
 //! (not misses). One generous measurement of a small rock no longer makes an obstacle of
 //! it for good, and a rock at the threshold is not refuted by its own small measurements.
 
+use crate::field_error::FieldError;
 use crate::planning::Pose2;
 use crate::spatial::GridIndex;
 use nalgebra::{Isometry3, Point2, Point3};
@@ -117,12 +118,18 @@ impl Default for ObstacleConfig {
 impl ObstacleConfig {
     /// Check the fields whose range is not already their type's: a message naming the
     /// first bad one.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         if !(0.0..=1.0).contains(&self.size_quantile) {
-            return Err("obstacles.size_quantile must be within 0..1".into());
+            return Err(FieldError::new(
+                "obstacles.size_quantile",
+                "must be within 0..1",
+            ));
         }
         if !(0.0..=1.0).contains(&self.sighting_radius_fraction) {
-            return Err("obstacles.sighting_radius_fraction must be within 0..1".into());
+            return Err(FieldError::new(
+                "obstacles.sighting_radius_fraction",
+                "must be within 0..1",
+            ));
         }
         let non_negative = [
             (
@@ -135,7 +142,10 @@ impl ObstacleConfig {
         ];
         for (name, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(format!("obstacles.{name} must be finite and not negative"));
+                return Err(FieldError::new(
+                    format!("obstacles.{name}"),
+                    "must be finite and not negative",
+                ));
             }
         }
         Ok(())

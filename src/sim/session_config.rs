@@ -131,7 +131,7 @@ impl SessionConfig {
         }
         self.obstacles
             .validate()
-            .map_err(SessionError::InvalidConfig)?;
+            .map_err(|e| SessionError::InvalidConfig(e.to_string()))?;
         if !self.navigator.glance.is_valid() {
             return bad(
                 "navigator.glance: period_s, turn_rate_rps and timeout_s must be positive, \

@@ -108,17 +108,16 @@ pub(crate) fn build_with_table_limit(
     let m = associations.len();
     let used_p = UsedPoints::new(prior.len(), associations.iter().map(|a| a.prior));
     let used_q = UsedPoints::new(query.len(), associations.iter().map(|a| a.query));
-    let (np, nq) = (used_p.len(), used_q.len());
-
-    // rank order: by (compact prior, compact query)
-    let mut id_of_rank: Vec<u32> = (0..m as u32).collect();
-    id_of_rank.sort_unstable_by_key(|&id| {
-        let a = associations[id as usize];
+    let np = used_p.len();
+    let compact = |a: Association| {
         (
             used_p.compact[a.prior as usize],
             used_q.compact[a.query as usize],
         )
-    });
+    };
+    // rank order: by (compact prior, compact query)
+    let mut id_of_rank: Vec<u32> = (0..m as u32).collect();
+    id_of_rank.sort_unstable_by_key(|&id| compact(associations[id as usize]));
     let mut block_start = vec![0usize; np + 1];
     for a in associations {
         block_start[used_p.compact[a.prior as usize] as usize + 1] += 1;
@@ -126,31 +125,10 @@ pub(crate) fn build_with_table_limit(
     for p in 0..np {
         block_start[p + 1] += block_start[p];
     }
-
-    let lookup = if np.saturating_mul(nq) <= dense_limit {
-        let mut ids = vec![u32::MAX; np * nq];
-        for (r, &id) in id_of_rank.iter().enumerate() {
-            let a = associations[id as usize];
-            let p = used_p.compact[a.prior as usize] as usize;
-            let q = used_q.compact[a.query as usize] as usize;
-            ids[p * nq + q] = r as u32;
-        }
-        Lookup::Dense { n_query: nq, ids }
-    } else {
-        let mut map = HashMap::with_capacity_and_hasher(m, Default::default());
-        for (r, &id) in id_of_rank.iter().enumerate() {
-            let a = associations[id as usize];
-            map.insert(
-                (
-                    used_p.compact[a.prior as usize],
-                    used_q.compact[a.query as usize],
-                ),
-                r as u32,
-            );
-        }
-        Lookup::Sparse(map)
-    };
-
+    let ranked = id_of_rank
+        .iter()
+        .map(|&id| compact(associations[id as usize]));
+    let lookup = Lookup::new(ranked, (np, used_q.len()), dense_limit);
     let query_pairs = sorted_query_pairs(query, &used_q, test);
     let prior_points: Vec<Point3<f64>> =
         used_p.original.iter().map(|&i| prior[i as usize]).collect();
@@ -161,23 +139,41 @@ pub(crate) fn build_with_table_limit(
         lookup: &lookup,
         block_start: &block_start,
     };
+    let in_rank_space = csr_from_blocks(ctx.row_blocks(), m);
+    if id_of_rank.iter().enumerate().all(|(r, &id)| r as u32 == id) {
+        in_rank_space
+    } else {
+        in_rank_space.relabelled(&id_of_rank)
+    }
+}
 
-    let n_chunks = (rayon::current_num_threads() * 8).clamp(1, np.max(1));
-    let chunk_len = np.div_ceil(n_chunks).max(1);
-    let blocks: Vec<RowBlock> = (0..np)
-        .step_by(chunk_len)
-        .collect::<Vec<_>>()
-        .into_par_iter()
-        .map(|a0| {
-            let mut out = RowBlock::default();
-            let mut scratch = Vec::new();
-            for a in a0..(a0 + chunk_len).min(np) {
-                ctx.rows_of_prior(a, &mut scratch, &mut out);
+impl Lookup {
+    /// The lookup of the (compact prior, compact query) pairs in rank order, among `np`
+    /// used prior and `nq` used query points: a dense table when `np nq` is within
+    /// `dense_limit`, else a hash map.
+    fn new(
+        ranked: impl ExactSizeIterator<Item = (u32, u32)>,
+        (np, nq): (usize, usize),
+        dense_limit: usize,
+    ) -> Self {
+        if np.saturating_mul(nq) <= dense_limit {
+            let mut ids = vec![u32::MAX; np * nq];
+            for (r, (p, q)) in ranked.enumerate() {
+                ids[p as usize * nq + q as usize] = r as u32;
             }
-            out
-        })
-        .collect();
+            Lookup::Dense { n_query: nq, ids }
+        } else {
+            let mut map = HashMap::with_capacity_and_hasher(ranked.len(), Default::default());
+            for (r, pq) in ranked.enumerate() {
+                map.insert(pq, r as u32);
+            }
+            Lookup::Sparse(map)
+        }
+    }
+}
 
+/// The graph (rank space) whose rows are those of `blocks` in order, for `m` associations.
+fn csr_from_blocks(blocks: Vec<RowBlock>, m: usize) -> ConsistencyGraph {
     let total: usize = blocks.iter().map(|b| b.neighbors.len()).sum();
     let mut offsets = Vec::with_capacity(m + 1);
     offsets.push(0usize);
@@ -192,12 +188,7 @@ pub(crate) fn build_with_table_limit(
         weights.extend_from_slice(&b.exponents);
     }
     exponents_to_weights(&mut weights);
-    let in_rank_space = ConsistencyGraph::from_csr_parts(offsets, neighbors, weights);
-    if id_of_rank.iter().enumerate().all(|(r, &id)| r as u32 == id) {
-        in_rank_space
-    } else {
-        in_rank_space.relabelled(&id_of_rank)
-    }
+    ConsistencyGraph::from_csr_parts(offsets, neighbors, weights)
 }
 
 /// Complete rows of a run of consecutive prior blocks.
@@ -218,6 +209,27 @@ struct JoinContext<'a> {
 }
 
 impl JoinContext<'_> {
+    /// The rows of every association, in rank order: runs of consecutive prior blocks in
+    /// parallel (about eight per thread).
+    fn row_blocks(&self) -> Vec<RowBlock> {
+        let np = self.prior.len();
+        let n_chunks = (rayon::current_num_threads() * 8).clamp(1, np.max(1));
+        let chunk_len = np.div_ceil(n_chunks).max(1);
+        (0..np)
+            .step_by(chunk_len)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|a0| {
+                let mut out = RowBlock::default();
+                let mut scratch = Vec::new();
+                for a in a0..(a0 + chunk_len).min(np) {
+                    self.rows_of_prior(a, &mut scratch, &mut out);
+                }
+                out
+            })
+            .collect()
+    }
+
     /// Appends the rows of every association of prior point `a` (compact) to `out`.
     fn rows_of_prior(&self, a: usize, scratch: &mut Vec<(u32, u32, f32)>, out: &mut RowBlock) {
         let (r0, r1) = (self.block_start[a], self.block_start[a + 1]);

@@ -3,13 +3,16 @@
 
 use serde_json::{Map, Value};
 
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 
 /// A required field.
-pub(super) fn required<'a>(object: &'a Map<String, Value>, key: &str) -> Result<&'a Value, String> {
+pub(super) fn required<'a>(
+    object: &'a Map<String, Value>,
+    key: &str,
+) -> Result<&'a Value, LineError> {
     object
         .get(key)
-        .ok_or_else(|| format!("\"{key}\" is missing"))
+        .ok_or_else(|| format!("\"{key}\" is missing").into())
 }
 
 /// An optional field (absent or `null` = not given).
@@ -18,33 +21,27 @@ pub(super) fn optional<'a>(object: &'a Map<String, Value>, key: &str) -> Option<
 }
 
 /// A finite number.
-pub(super) fn number(value: &Value, field: &str) -> Result<f64, String> {
+pub(super) fn number(value: &Value, field: &str) -> Result<f64, LineError> {
     match value.as_f64() {
         Some(v) if v.is_finite() => Ok(v),
-        Some(v) => Err(format!("{field}: {v} is not a finite number")),
-        None => Err(format!(
-            "{field}: expected a number, got {}",
-            describe(value)
-        )),
+        Some(v) => Err(format!("{field}: {v} is not a finite number").into()),
+        None => Err(format!("{field}: expected a number, got {}", describe(value)).into()),
     }
 }
 
 /// An array.
-pub(super) fn array<'a>(value: &'a Value, field: &str) -> Result<&'a [Value], String> {
+pub(super) fn array<'a>(value: &'a Value, field: &str) -> Result<&'a [Value], LineError> {
     value
         .as_array()
         .map(Vec::as_slice)
-        .ok_or_else(|| format!("{field}: expected an array, got {}", describe(value)))
+        .ok_or_else(|| format!("{field}: expected an array, got {}", describe(value)).into())
 }
 
 /// An array of exactly `N` finite numbers.
-pub(super) fn numbers<const N: usize>(value: &Value, field: &str) -> Result<[f64; N], String> {
+pub(super) fn numbers<const N: usize>(value: &Value, field: &str) -> Result<[f64; N], LineError> {
     let items = array(value, field)?;
     if items.len() != N {
-        return Err(format!(
-            "{field}: expected {N} numbers, got {}",
-            items.len()
-        ));
+        return Err(format!("{field}: expected {N} numbers, got {}", items.len()).into());
     }
     let mut out = [0.0; N];
     for (k, (slot, item)) in out.iter_mut().zip(items).enumerate() {

@@ -7,4 +7,4 @@ pub mod yolo_seg;
 
 pub use onnx_segmenter::OnnxSegmenter;
 pub use runtime::{onnxruntime_library, runtime_available, ONNXRUNTIME_VERSION};
-pub use yolo_seg::{decode_yolo_seg, Letterbox, YoloSegConfig};
+pub use yolo_seg::{decode_yolo_seg, Letterbox, YoloOutputError, YoloSegConfig};

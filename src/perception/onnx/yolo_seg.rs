@@ -86,6 +86,74 @@ impl Letterbox {
     }
 }
 
+/// Outputs that do not fit the YOLOv8-seg format.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum YoloOutputError {
+    /// `output0` is not `[1, rows, candidates]`.
+    #[error("output0 has shape {0:?}, expected [1, 4 + classes + k, candidates]")]
+    PredictionShape(Vec<usize>),
+    /// `output1` is not `[1, k, height, width]`.
+    #[error("output1 has shape {0:?}, expected [1, k, height, width]")]
+    PrototypeShape(Vec<usize>),
+    /// `output0` has too few rows for a box, a class and the `k` mask coefficients.
+    #[error("output0 has {rows} rows per candidate, but 4 box values + at least one class + {k} mask coefficients are needed")]
+    TooFewRows {
+        /// Rows per candidate.
+        rows: usize,
+        /// Mask coefficients (prototypes).
+        k: usize,
+    },
+    /// The data lengths differ from the shapes' products.
+    #[error("output sizes do not match their shapes")]
+    SizeMismatch,
+}
+
+/// The dimensions of the two outputs.
+struct OutputLayout {
+    /// Candidates.
+    n: usize,
+    /// Class scores per candidate.
+    classes: usize,
+    /// Mask coefficients per candidate (prototype masks).
+    k: usize,
+    /// Prototype height and width.
+    ph: usize,
+    pw: usize,
+}
+
+impl OutputLayout {
+    /// The layout of `output0` / `output1`, checked against their lengths.
+    fn of(
+        preds: &[f32],
+        pred_shape: &[usize],
+        protos: &[f32],
+        proto_shape: &[usize],
+    ) -> Result<Self, YoloOutputError> {
+        let [1, rows, n] = *pred_shape else {
+            return Err(YoloOutputError::PredictionShape(pred_shape.to_vec()));
+        };
+        let [1, k, ph, pw] = *proto_shape else {
+            return Err(YoloOutputError::PrototypeShape(proto_shape.to_vec()));
+        };
+        if rows < 4 + 1 + k || k == 0 {
+            return Err(YoloOutputError::TooFewRows { rows, k });
+        }
+        if preds.len() != rows * n || protos.len() != k * ph * pw {
+            return Err(YoloOutputError::SizeMismatch);
+        }
+        Ok(OutputLayout {
+            n,
+            classes: rows - 4 - k,
+            k,
+            ph,
+            pw,
+        })
+    }
+}
+
+/// A candidate: best class score, box (x0, y0, x1, y1, input pixels) and column.
+type Candidate = (f32, [f64; 4], usize);
+
 /// Decode the two outputs. `preds` / `pred_shape` are `output0`, `protos` / `proto_shape`
 /// `output1`. Errors describe shapes that do not fit the format.
 pub fn decode_yolo_seg(
@@ -95,31 +163,36 @@ pub fn decode_yolo_seg(
     proto_shape: &[usize],
     letterbox: &Letterbox,
     config: &YoloSegConfig,
-) -> Result<Vec<Mask>, String> {
-    let [1, rows, n] = *pred_shape else {
-        return Err(format!(
-            "output0 has shape {pred_shape:?}, expected [1, 4 + classes + k, candidates]"
-        ));
-    };
-    let [1, k, ph, pw] = *proto_shape else {
-        return Err(format!(
-            "output1 has shape {proto_shape:?}, expected [1, k, height, width]"
-        ));
-    };
-    if rows < 4 + 1 + k || k == 0 {
-        return Err(format!(
-            "output0 has {rows} rows per candidate, but 4 box values + at least one class + {k} mask coefficients are needed"
-        ));
+) -> Result<Vec<Mask>, YoloOutputError> {
+    let layout = OutputLayout::of(preds, pred_shape, protos, proto_shape)?;
+    let at = |r: usize, i: usize| preds[r * layout.n + i];
+    let mut masks = Vec::new();
+    for (score, b, i) in suppress_overlaps(candidates(preds, &layout, config), config) {
+        let coeffs: Vec<f32> = (0..layout.k)
+            .map(|j| at(4 + layout.classes + j, i))
+            .collect();
+        let Some(pixels) = mask_pixels(&coeffs, protos, &layout, &b, letterbox) else {
+            continue;
+        };
+        let Some(mask) = Mask::from_pixels(&pixels, score) else {
+            continue;
+        };
+        if config.point_grid > 0 && !hit_by_grid(&mask, letterbox, config.point_grid) {
+            continue;
+        }
+        masks.push(mask);
     }
-    if preds.len() != rows * n || protos.len() != k * ph * pw {
-        return Err("output sizes do not match their shapes".into());
-    }
-    let classes = rows - 4 - k;
-    let at = |r: usize, i: usize| preds[r * n + i];
-    // candidates
-    let mut cand: Vec<(f32, [f64; 4], usize)> = (0..n)
+    Ok(masks)
+}
+
+/// The candidates whose best class score passes the threshold and whose box is finite.
+fn candidates(preds: &[f32], layout: &OutputLayout, config: &YoloSegConfig) -> Vec<Candidate> {
+    let at = |r: usize, i: usize| preds[r * layout.n + i];
+    (0..layout.n)
         .filter_map(|i| {
-            let score = (0..classes).map(|c| at(4 + c, i)).fold(f32::MIN, f32::max);
+            let score = (0..layout.classes)
+                .map(|c| at(4 + c, i))
+                .fold(f32::MIN, f32::max);
             if score.is_nan() || score < config.score_threshold {
                 return None;
             }
@@ -132,9 +205,14 @@ pub fn decode_yolo_seg(
             let b = [cx - w / 2.0, cy - h / 2.0, cx + w / 2.0, cy + h / 2.0];
             b.iter().all(|v| v.is_finite()).then_some((score, b, i))
         })
-        .collect();
+        .collect()
+}
+
+/// Non-maximum suppression: the best-scoring candidates, none overlapping a better one by
+/// more than the IoU threshold, at most `max_detections`.
+fn suppress_overlaps(mut cand: Vec<Candidate>, config: &YoloSegConfig) -> Vec<Candidate> {
     cand.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let mut kept: Vec<(f32, [f64; 4], usize)> = Vec::new();
+    let mut kept: Vec<Candidate> = Vec::new();
     for c in cand {
         if kept.len() >= config.max_detections {
             break;
@@ -146,53 +224,56 @@ pub fn decode_yolo_seg(
             kept.push(c);
         }
     }
+    kept
+}
+
+/// The image pixels inside box `b` (input pixels) where the mask's logit (the prototypes
+/// weighted by `coeffs`, sampled bilinearly) is positive; `None` when the box is empty in
+/// the image.
+fn mask_pixels(
+    coeffs: &[f32],
+    protos: &[f32],
+    layout: &OutputLayout,
+    b: &[f64; 4],
+    letterbox: &Letterbox,
+) -> Option<Vec<(usize, usize)>> {
+    let (k, ph, pw) = (layout.k, layout.ph, layout.pw);
     let s = letterbox.input_size as f64;
     let (sx, sy) = (pw as f64 / s, ph as f64 / s);
-    let mut masks = Vec::new();
-    for (score, b, i) in kept {
-        let coeffs: Vec<f32> = (0..k).map(|j| at(4 + classes + j, i)).collect();
-        // the box in image pixels, clamped
-        let (u0, v0) = letterbox.to_image(b[0], b[1]);
-        let (u1, v1) = letterbox.to_image(b[2], b[3]);
-        let u0 = u0.floor().max(0.0) as usize;
-        let v0 = v0.floor().max(0.0) as usize;
-        let u1 = (u1.ceil().max(0.0) as usize).min(letterbox.image_width);
-        let v1 = (v1.ceil().max(0.0) as usize).min(letterbox.image_height);
-        if u1 <= u0 || v1 <= v0 {
-            continue;
-        }
-        let logit = |px: usize, py: usize| -> f32 {
-            (0..k)
-                .map(|j| coeffs[j] * protos[(j * ph + py) * pw + px])
-                .sum()
-        };
-        let mut cache = std::collections::HashMap::new();
-        let mut pixels = Vec::new();
-        for v in v0..v1 {
-            for u in u0..u1 {
-                let (x, y) = letterbox.to_input(u as f64, v as f64);
-                // bilinear sample of the prototype-resolution logit (pixel centres)
-                let (fx, fy) = ((x * sx - 0.5).max(0.0), (y * sy - 0.5).max(0.0));
-                let (x0, y0) = ((fx as usize).min(pw - 1), (fy as usize).min(ph - 1));
-                let (x1, y1) = ((x0 + 1).min(pw - 1), (y0 + 1).min(ph - 1));
-                let (ax, ay) = ((fx - x0 as f64) as f32, (fy - y0 as f64) as f32);
-                let mut g = |px, py| *cache.entry((px, py)).or_insert_with(|| logit(px, py));
-                let top = g(x0, y0) * (1.0 - ax) + g(x1, y0) * ax;
-                let bottom = g(x0, y1) * (1.0 - ax) + g(x1, y1) * ax;
-                if top * (1.0 - ay) + bottom * ay > 0.0 {
-                    pixels.push((u, v));
-                }
+    // the box in image pixels, clamped
+    let (u0, v0) = letterbox.to_image(b[0], b[1]);
+    let (u1, v1) = letterbox.to_image(b[2], b[3]);
+    let u0 = u0.floor().max(0.0) as usize;
+    let v0 = v0.floor().max(0.0) as usize;
+    let u1 = (u1.ceil().max(0.0) as usize).min(letterbox.image_width);
+    let v1 = (v1.ceil().max(0.0) as usize).min(letterbox.image_height);
+    if u1 <= u0 || v1 <= v0 {
+        return None;
+    }
+    let logit = |px: usize, py: usize| -> f32 {
+        (0..k)
+            .map(|j| coeffs[j] * protos[(j * ph + py) * pw + px])
+            .sum()
+    };
+    let mut cache = std::collections::HashMap::new();
+    let mut pixels = Vec::new();
+    for v in v0..v1 {
+        for u in u0..u1 {
+            let (x, y) = letterbox.to_input(u as f64, v as f64);
+            // bilinear sample of the prototype-resolution logit (pixel centres)
+            let (fx, fy) = ((x * sx - 0.5).max(0.0), (y * sy - 0.5).max(0.0));
+            let (x0, y0) = ((fx as usize).min(pw - 1), (fy as usize).min(ph - 1));
+            let (x1, y1) = ((x0 + 1).min(pw - 1), (y0 + 1).min(ph - 1));
+            let (ax, ay) = ((fx - x0 as f64) as f32, (fy - y0 as f64) as f32);
+            let mut g = |px, py| *cache.entry((px, py)).or_insert_with(|| logit(px, py));
+            let top = g(x0, y0) * (1.0 - ax) + g(x1, y0) * ax;
+            let bottom = g(x0, y1) * (1.0 - ax) + g(x1, y1) * ax;
+            if top * (1.0 - ay) + bottom * ay > 0.0 {
+                pixels.push((u, v));
             }
         }
-        let Some(mask) = Mask::from_pixels(&pixels, score) else {
-            continue;
-        };
-        if config.point_grid > 0 && !hit_by_grid(&mask, letterbox, config.point_grid) {
-            continue;
-        }
-        masks.push(mask);
     }
-    Ok(masks)
+    Some(pixels)
 }
 
 /// Whether a point of the uniform G × G grid over the image falls in the mask.
@@ -289,6 +370,7 @@ mod tests {
         assert!(
             decode_yolo_seg(&[0.0; 6], &[1, 6, 1], &protos(), &[1, 2, 16, 16], &lb, &c)
                 .unwrap_err()
+                .to_string()
                 .contains("rows")
         );
     }

@@ -171,7 +171,7 @@ impl<L: Lane> Sweep<L> {
             vert_min,
             diag,
             diag_min,
-            cost,
+            cost: scratch,
             part,
             zero,
             planes,
@@ -190,35 +190,7 @@ impl<L: Lane> Sweep<L> {
         let mut h_min = L::default();
         for i in 0..w {
             let x = if *down { i } else { w - 1 - i };
-            let cells = x * nd..(x + 1) * nd;
-            // on bytes, the kept costs are the lane costs: computed in place, read in place
-            let cost: &[L] = match &mut costs {
-                RowCosts::Compute {
-                    cl, max_cost, keep, ..
-                } => {
-                    let l = [cl[x], cl[w + x], cl[2 * w + x]];
-                    if let Some(kept) = L::of_bytes_mut(&mut keep[cells.clone()]) {
-                        fill_costs(kept, l, planes, x, *max_cost);
-                        kept
-                    } else {
-                        fill_costs(cost, l, planes, x, *max_cost);
-                        for (k, &c) in keep[cells].iter_mut().zip(cost.iter()) {
-                            *k = c.wide() as u8;
-                        }
-                        cost
-                    }
-                }
-                RowCosts::Stored(stored) => {
-                    if let Some(kept) = L::of_bytes(&stored[cells.clone()]) {
-                        kept
-                    } else {
-                        for (c, &k) in cost.iter_mut().zip(&stored[cells]) {
-                            *c = L::of(k as u16);
-                        }
-                        cost
-                    }
-                }
-            };
+            let cost = column_costs(&mut costs, &mut scratch[..], planes, x);
             let slot = x * sp..(x + 1) * sp;
             let part = &mut part[x * nd..(x + 1) * nd];
             let [h_prev, h_cur] = &mut *hor;
@@ -253,6 +225,12 @@ impl<L: Lane> Sweep<L> {
             }
             hor.swap(0, 1);
         }
+        self.end_row();
+    }
+
+    /// This row's path costs become the previous row's.
+    #[inline(always)]
+    fn end_row(&mut self) {
         self.vert.swap(0, 1);
         self.vert_min.swap(0, 1);
         for k in 0..2 {
@@ -260,6 +238,50 @@ impl<L: Lane> Sweep<L> {
             self.diag_min[k].swap(0, 1);
         }
         self.rows_done += 1;
+    }
+}
+
+/// The matching costs of column `x` (`w` = the planes' width, `nd` = `scratch`'s length):
+/// computed from the census planes and kept as bytes, or read from the kept ones. On bytes
+/// the kept costs are the lane costs, computed and read in place; wider lanes go through
+/// `scratch`.
+#[inline(always)]
+fn column_costs<'c, L: Lane>(
+    costs: &'c mut RowCosts<'_>,
+    scratch: &'c mut [L],
+    planes: &[Vec<u16>; 3],
+    x: usize,
+) -> &'c [L] {
+    let (w, nd) = (planes[0].len(), scratch.len());
+    let cells = x * nd..(x + 1) * nd;
+    match costs {
+        RowCosts::Compute {
+            cl, max_cost, keep, ..
+        } => {
+            let l = [cl[x], cl[w + x], cl[2 * w + x]];
+            if L::of_bytes(&[]).is_some() {
+                // the lanes are bytes (`of_bytes_mut` is `Some` exactly when `of_bytes` is)
+                let kept = L::of_bytes_mut(&mut keep[cells]).unwrap_or_default();
+                fill_costs(kept, l, planes, x, *max_cost);
+                kept
+            } else {
+                fill_costs(scratch, l, planes, x, *max_cost);
+                for (k, &c) in keep[cells].iter_mut().zip(scratch.iter()) {
+                    *k = c.wide() as u8;
+                }
+                scratch
+            }
+        }
+        RowCosts::Stored(stored) => {
+            if let Some(kept) = L::of_bytes(&stored[cells.clone()]) {
+                kept
+            } else {
+                for (c, &k) in scratch.iter_mut().zip(&stored[cells]) {
+                    *c = L::of(k as u16);
+                }
+                scratch
+            }
+        }
     }
 }
 
