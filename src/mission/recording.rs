@@ -257,7 +257,7 @@ fn log_frame(
         &rerun::Scalars::new([error(&frame.world_from_rover_odometry)]),
     )?;
     let last = k + 1 == session.frames.len();
-    if k % TRAJECTORY_EVERY_FRAMES != 0 && !last {
+    if !k.is_multiple_of(TRAJECTORY_EVERY_FRAMES) && !last {
         return Ok(());
     }
     let lines: [(&str, [u8; 3], PoseOf); 3] = [
