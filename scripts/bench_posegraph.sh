@@ -8,7 +8,9 @@
 # checks robustness to wrong loop closures and incremental updates, and writes the section
 # "## Pose graph (issue 3)" of BENCHMARKS.md.
 #
-# Usage: scripts/bench_posegraph.sh [--runs N] [--seeds N] [--no-write]
+# Usage: scripts/bench_posegraph.sh [--runs N] [--seeds N] [--no-write] [--datasets-section]
+# (--datasets-section: only the public and generated datasets against GTSAM, printed as a
+# short markdown section; nothing is written)
 # Env: SEGLOC_BENCH_VENV (an existing virtual environment with gtsam), CARGO_TARGET_DIR.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -33,8 +33,10 @@ pub(crate) fn chordal_initialize(
     let rotations: Vec<Matrix3<f64>> = poses.iter().map(rotation_matrix).collect();
     let identity = Matrix3::identity();
 
-    // Rotations, one row k at a time: x_v = (row k of R_v)ᵀ, residual x_b − Zᵀ x_a.
-    let mut rows = vec![Matrix3::zeros(); system.var_of.len()];
+    // Rotations, one row k at a time: x_v = (row k of R_v)ᵀ, residual x_b − Zᵀ x_a. The
+    // three right-hand sides −g_k are solved together, in one pass over the factor.
+    let n = system.dim();
+    let mut steps = vec![0.0; 3 * n];
     for k in 0..3 {
         if k == 0 {
             system.clear();
@@ -61,24 +63,30 @@ pub(crate) fn chordal_initialize(
                 system.add_factor_gradient(i, &jac_a, &jac_b, &weight, &residual);
             }
         }
-        // An initial estimate needs no more than a single-precision factor (its solves are
-        // refined once in double precision).
-        if k == 0 && !system.factorize_damped_in(Precision::Single, |_, _| 0.0) {
-            return Ok(false);
+        for (s, g) in steps[k * n..(k + 1) * n].iter_mut().zip(&system.gradient) {
+            *s = -g;
         }
-        let mut step = vec![0.0; system.dim()];
-        if !system.solve(&mut step) {
-            return Ok(false);
-        }
-        for (blk, &v) in system.var_of.iter().enumerate() {
-            for c in 0..3 {
-                rows[blk][(k, c)] = rotations[v][(k, c)] + step[3 * blk + c];
-            }
-        }
+    }
+    // An initial estimate needs no more than a single-precision factor (its solves are
+    // refined once in double precision) where that is cheaper.
+    let precision = match system.single_precision_pays() {
+        true => Precision::Single,
+        false => Precision::Double,
+    };
+    if !system.factorize_damped_in(precision, |_, _| 0.0)
+        || !system.solve_columns(&mut steps, 3, true)
+    {
+        return Ok(false);
     }
     let mut new_rotations = rotations.clone();
     for (blk, &v) in system.var_of.iter().enumerate() {
-        new_rotations[v] = project_to_so3(&rows[blk]);
+        let mut row = Matrix3::zeros();
+        for k in 0..3 {
+            for c in 0..3 {
+                row[(k, c)] = rotations[v][(k, c)] + steps[k * n + 3 * blk + c];
+            }
+        }
+        new_rotations[v] = project_to_so3(&row);
     }
 
     // Translations with the rotations held. With the translation information replaced by
@@ -86,7 +94,8 @@ pub(crate) fn chordal_initialize(
     // Laplacian per coordinate: a scalar system, 27× cheaper than the 3×3-block one.
     let mut laplacian =
         NormalEquations::<1>::analyse_with_order(held, factors, Some(&system.order))?;
-    let mut coords = vec![[0.0; 3]; laplacian.var_of.len()];
+    let m = laplacian.dim();
+    let mut steps = vec![0.0; 3 * m];
     let one = SMatrix::<f64, 1, 1>::identity();
     for c in 0..3 {
         if c == 0 {
@@ -114,19 +123,19 @@ pub(crate) fn chordal_initialize(
                 laplacian.add_factor_gradient(i, &jac_a, &one, &w, &r);
             }
         }
-        if c == 0 && !laplacian.factorize_damped(|_, _| 0.0) {
-            return Ok(false);
-        }
-        let mut step = vec![0.0; laplacian.dim()];
-        if !laplacian.solve(&mut step) {
-            return Ok(false);
-        }
-        for (blk, &v) in laplacian.var_of.iter().enumerate() {
-            coords[blk][c] = poses[v].translation.vector[c] + step[blk];
+        for (s, g) in steps[c * m..(c + 1) * m]
+            .iter_mut()
+            .zip(&laplacian.gradient)
+        {
+            *s = -g;
         }
     }
+    if !laplacian.factorize_damped(|_, _| 0.0) || !laplacian.solve_columns(&mut steps, 3, true) {
+        return Ok(false);
+    }
     for (blk, &v) in laplacian.var_of.iter().enumerate() {
-        let [x, y, z] = coords[blk];
+        let t = poses[v].translation.vector;
+        let [x, y, z] = [0, 1, 2].map(|c| t[c] + steps[c * m + blk]);
         let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
             new_rotations[v],
         ));

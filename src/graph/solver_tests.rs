@@ -295,9 +295,10 @@ fn chordal_initialisation_starts_close_to_the_optimum() {
 
 #[test]
 fn single_precision_factors_reach_the_double_precision_optimum() {
+    // Large enough for single precision (a factor of at least 100,000 non-zeros).
     let synth = synthetic::generate(&synthetic::SyntheticConfig {
-        poses: 400,
-        loop_closures: 60,
+        poses: 2000,
+        loop_closures: 300,
         ..Default::default()
     });
     let solve = |regime: f64| {
@@ -317,6 +318,7 @@ fn single_precision_factors_reach_the_double_precision_optimum() {
     let (double, r_double) = solve(f64::INFINITY);
     assert_eq!(r_double.single_precision_factorizations, 0);
     let (mixed, r_mixed) = solve(0.0);
+    assert!(r_mixed.factor_nnz >= 100_000, "{}", r_mixed.factor_nnz);
     assert!(r_mixed.converged, "{:?}", r_mixed.termination);
     // Every factorisation was in single precision, and the refined steps still converge to
     // the same optimum.
@@ -331,11 +333,33 @@ fn single_precision_factors_reach_the_double_precision_optimum() {
         r_mixed.final_cost,
         r_double.final_cost
     );
-    for id in 0..400 {
+    for id in 0..2000 {
         let a = double.pose(id).unwrap();
         let b = mixed.pose(id).unwrap();
         assert!(se3::log(&(a.inverse() * b)).norm() < 1e-6, "pose {id}");
     }
+}
+
+#[test]
+fn small_factors_stay_in_double_precision() {
+    // Under 100,000 non-zeros a single-precision factor gains nothing: never used.
+    let synth = synthetic::generate(&synthetic::SyntheticConfig {
+        poses: 400,
+        loop_closures: 60,
+        ..Default::default()
+    });
+    let mut g = synth
+        .file
+        .to_pose_graph(&file::BuildOptions::default())
+        .unwrap();
+    let config = SolverConfig {
+        single_precision_regime: 0.0,
+        ..SolverConfig::default()
+    };
+    let report = g.optimize(&config).unwrap();
+    assert!(report.factor_nnz < 100_000, "{}", report.factor_nnz);
+    assert!(report.converged && report.factorizations > 0);
+    assert_eq!(report.single_precision_factorizations, 0);
 }
 
 #[test]

@@ -131,7 +131,9 @@ pub struct SolverConfig {
     /// once against the double-precision matrix, which makes the step nearly as accurate;
     /// a factorisation that fails is redone in double precision.
     /// Costs, gradients and the convergence test stay in double precision throughout, so
-    /// the optimum reached is the same. `inf` turns single precision off.
+    /// the optimum reached is the same. `inf` turns single precision off; it is not used
+    /// either for factors under 100,000 non-zeros, which stay in the cache (it gains nothing
+    /// there and its solves cost two).
     pub single_precision_regime: f64,
     /// Graduated non-convexity schedule (used only when a factor has a GNC kernel).
     pub gnc: GncConfig,

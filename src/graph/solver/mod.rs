@@ -434,7 +434,8 @@ impl LmRun<'_> {
             Damping::Identity => lam,
             Damping::Diagonal => lam * h.clamp(1e-6, 1e32),
         };
-        let single = self.last_decrease > self.config.single_precision_regime;
+        let single = self.last_decrease > self.config.single_precision_regime
+            && self.system.single_precision_pays();
         let mut ok = single && self.system.factorize_damped_in(Precision::Single, damp);
         if ok {
             self.state.single_precision_factorizations += 1;

@@ -15,7 +15,7 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Par, Side};
 use nalgebra::{SMatrix, SVector};
 
@@ -23,6 +23,16 @@ mod solve;
 
 /// Marker for a variable that is held (not part of the linear system).
 const HELD: usize = usize::MAX;
+
+/// Right-hand sides solved together at most ([`NormalEquations::solve_columns`]): the three
+/// rows of the rotations, or the three coordinates, of the chordal initialisation.
+pub(crate) const MAX_COLUMNS: usize = 3;
+
+/// Non-zeros of the factor below which single precision is not used
+/// ([`NormalEquations::single_precision_pays`]): such a factor (under 800 kB in double
+/// precision) stays in the cache, so halving its bytes gains nothing, while every
+/// single-precision solve is refined by a second one (see `docs/design/posegraph_fixed_costs.md`).
+const SINGLE_PRECISION_MIN_NNZ: usize = 100_000;
 
 /// Where one factor's blocks live in the value array.
 #[derive(Clone, Copy, Debug)]
@@ -65,8 +75,8 @@ pub(crate) struct NormalEquations<const B: usize> {
     pub var_of: Vec<usize>,
     /// Elimination order as indices into the free variables in insertion order.
     pub order: Vec<usize>,
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
+    /// Lower-triangle pattern (scalar CSC), checked once when analysed.
+    pattern: SymbolicSparseColMat<usize>,
     slots: Vec<FactorSlots>,
     /// Undamped Hessian values (upper triangle).
     hessian: Vec<f64>,
@@ -201,36 +211,43 @@ impl<const B: usize> NormalEquations<B> {
         // supernodal numeric factorisation consumes the lower one as is: analyse the
         // transposed pattern once, hand over the lower values every iteration.
         let (up_ptr, up_idx) = transpose_pattern(n, &col_ptr, &row_idx);
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_idx);
+        let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_idx);
         let params = CholeskySymbolicParams {
             // faer picks the simplicial (column by column) factorisation for long chains
             // with little fill, which measured 2× slower than the supernodal one on a
-            // 5,000-pose graph; the B×B blocks make supernodes worthwhile everywhere.
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            // 5,000-pose graph; the 6×6 blocks make supernodes worthwhile everywhere. The
+            // 3×3- and 1×1-block systems of the chordal start keep faer's own choice, which
+            // measured faster there (sphere2500's scalar Laplacian: 2.1 instead of 2.4–6.6 ms;
+            // the 27-pose grid's initialisation: 0.075 instead of 0.098 ms).
+            supernodal_flop_ratio_threshold: if B >= 6 {
+                SupernodalThreshold::FORCE_SUPERNODAL
+            } else {
+                SupernodalThreshold::AUTO
+            },
             ..Default::default()
         };
         let symbolic =
-            factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Identity, params)
+            factorize_symbolic_cholesky(upper, Side::Lower, SymmetricOrdering::Identity, params)
                 .map_err(|e| GraphError::LinearAlgebra(format!("{e:?}")))?;
         let par = Par::Seq;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
             symbolic.factorize_numeric_llt_scratch::<f32>(par, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, par),
-            symbolic.solve_in_place_scratch::<f32>(1, par),
+            symbolic.solve_in_place_scratch::<f64>(MAX_COLUMNS, par),
+            symbolic.solve_in_place_scratch::<f32>(MAX_COLUMNS, par),
         ]);
         let workspace = MemBuffer::try_new(req)
             .map_err(|_| GraphError::LinearAlgebra("out of memory".into()))?;
         let l_values = vec![0.0; symbolic.len_val()];
+        let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Ok(Self {
             var_of,
             order,
-            hessian: vec![0.0; row_idx.len()],
-            damped: vec![0.0; row_idx.len()],
+            hessian: vec![0.0; pattern.compute_nnz()],
+            damped: vec![0.0; pattern.compute_nnz()],
             damped_f32: Vec::new(),
             scratch_f32: Vec::new(),
-            col_ptr,
-            row_idx,
+            pattern,
             slots,
             diag_pos,
             gradient: vec![0.0; n],
@@ -344,7 +361,7 @@ impl<const B: usize> NormalEquations<B> {
 
     fn add_diag_block(&mut self, block: usize, h: &SMatrix<f64, B, B>) {
         for k in 0..B {
-            let start = self.col_ptr[B * block + k];
+            let start = self.pattern.col_ptr()[B * block + k];
             for (d, i) in self.hessian[start..start + B - k].iter_mut().zip(k..B) {
                 *d += h[(i, k)];
             }
@@ -366,7 +383,7 @@ impl<const B: usize> NormalEquations<B> {
             (s.block_a, true)
         };
         for k in 0..B {
-            let start = self.col_ptr[B * col + k] + (B - k) + s.off_rank;
+            let start = self.pattern.col_ptr()[B * col + k] + (B - k) + s.off_rank;
             let dst = &mut self.hessian[start..start + B];
             for (i, d) in dst.iter_mut().enumerate() {
                 *d += if transpose { hab[(k, i)] } else { hab[(i, k)] };
@@ -395,10 +412,7 @@ impl<const B: usize> NormalEquations<B> {
         for (i, &p) in self.diag_pos.iter().enumerate() {
             self.damped[p] += damping(i, self.hessian[p]);
         }
-        let n = self.dim();
-        // The CSC arrays were built consistently in `analyse`; `new_checked` re-verifies them.
-        let symbolic =
-            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let symbolic = self.pattern.as_ref();
         let stack = MemStack::new(&mut self.workspace);
         let ok = match precision {
             Precision::Double => {
@@ -447,6 +461,12 @@ impl<const B: usize> NormalEquations<B> {
     /// Number of non-zeros of the Cholesky factor (a measure of fill).
     pub fn factor_nnz(&self) -> usize {
         self.l_values.len()
+    }
+
+    /// True when a single-precision factorisation is worth its refined solves: the factor
+    /// has at least [`SINGLE_PRECISION_MIN_NNZ`] non-zeros.
+    pub fn single_precision_pays(&self) -> bool {
+        self.factor_nnz() >= SINGLE_PRECISION_MIN_NNZ
     }
 }
 
