@@ -31,7 +31,7 @@ pub(crate) const MAX_COLUMNS: usize = 3;
 /// Non-zeros of the factor below which single precision is not used
 /// ([`NormalEquations::single_precision_pays`]): such a factor (under 800 kB in double
 /// precision) stays in the cache, so halving its bytes gains nothing, while every
-/// single-precision solve is refined by a second one (see `docs/design/posegraph_fixed_costs.md`).
+/// single-precision solve is refined by a second one (see `docs/design/posegraph-fixed-costs.md`).
 const SINGLE_PRECISION_MIN_NNZ: usize = 100_000;
 
 /// Where one factor's blocks live in the value array.
