@@ -148,6 +148,57 @@ impl Default for BuildOptions {
     }
 }
 
+/// What is wrong with one line of a pose-graph file (the reader adds the file and line).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LineError {
+    /// The line ends before a required field.
+    #[error("missing {what} (line ends after {after} fields)")]
+    Missing {
+        /// The field expected.
+        what: String,
+        /// Fields read before the end.
+        after: usize,
+    },
+    /// A field that should be a non-negative integer id is not.
+    #[error("{what} '{token}' is not a non-negative integer")]
+    NotAnId {
+        /// The field.
+        what: String,
+        /// Its text.
+        token: String,
+    },
+    /// A field that should be a number is not.
+    #[error("{what} '{token}' is not a number")]
+    NotANumber {
+        /// The field.
+        what: String,
+        /// Its text.
+        token: String,
+    },
+    /// A number is NaN or infinite.
+    #[error("{what} is {token} (NaN or infinite)")]
+    NotFinite {
+        /// The field.
+        what: String,
+        /// Its text.
+        token: String,
+    },
+    /// Fields remain after the last expected one.
+    #[error("{tag} has extra field '{token}' after {after} fields")]
+    ExtraField {
+        /// The line's tag.
+        tag: String,
+        /// The first extra field.
+        token: String,
+        /// Fields expected.
+        after: usize,
+    },
+    /// The fields parse but do not make a pose (a zero quaternion, a matrix that is not a
+    /// rigid motion).
+    #[error("{0}")]
+    NotAPose(&'static str),
+}
+
 /// Whitespace tokens of one line, with typed accessors that explain failures.
 pub struct Tokens<'a> {
     inner: std::str::SplitWhitespace<'a>,
@@ -163,40 +214,50 @@ impl<'a> Tokens<'a> {
         }
     }
 
-    fn next(&mut self, what: &str) -> Result<&'a str, String> {
-        let t = self
-            .inner
-            .next()
-            .ok_or_else(|| format!("missing {what} (line ends after {} fields)", self.consumed))?;
+    fn next(&mut self, what: &str) -> Result<&'a str, LineError> {
+        let t = self.inner.next().ok_or_else(|| LineError::Missing {
+            what: what.to_string(),
+            after: self.consumed,
+        })?;
         self.consumed += 1;
         Ok(t)
     }
 
     /// A non-negative integer id.
-    pub fn id(&mut self, what: &str) -> Result<u64, String> {
+    pub fn id(&mut self, what: &str) -> Result<u64, LineError> {
         let t = self.next(what)?;
-        u64::from_str(t).map_err(|_| format!("{what} '{t}' is not a non-negative integer"))
+        u64::from_str(t).map_err(|_| LineError::NotAnId {
+            what: what.to_string(),
+            token: t.to_string(),
+        })
     }
 
     /// A finite number.
-    pub fn number(&mut self, what: &str) -> Result<f64, String> {
+    pub fn number(&mut self, what: &str) -> Result<f64, LineError> {
         let t = self.next(what)?;
-        let v = f64::from_str(t).map_err(|_| format!("{what} '{t}' is not a number"))?;
+        let v = f64::from_str(t).map_err(|_| LineError::NotANumber {
+            what: what.to_string(),
+            token: t.to_string(),
+        })?;
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(format!("{what} is {t} (NaN or infinite)"))
+            Err(LineError::NotFinite {
+                what: what.to_string(),
+                token: t.to_string(),
+            })
         }
     }
 
     /// Fails if tokens remain.
-    pub fn finish(&mut self, tag: &str) -> Result<(), String> {
+    pub fn finish(&mut self, tag: &str) -> Result<(), LineError> {
         match self.inner.next() {
             None => Ok(()),
-            Some(t) => Err(format!(
-                "{tag} has extra field '{t}' after {} fields",
-                self.consumed
-            )),
+            Some(t) => Err(LineError::ExtraField {
+                tag: tag.to_string(),
+                token: t.to_string(),
+                after: self.consumed,
+            }),
         }
     }
 }
@@ -205,7 +266,7 @@ impl<'a> Tokens<'a> {
 pub fn parse_fields<const N: usize>(
     tokens: &mut Tokens<'_>,
     tag: &str,
-) -> Result<[f64; N], String> {
+) -> Result<[f64; N], LineError> {
     let mut out = [0.0; N];
     for (k, v) in out.iter_mut().enumerate() {
         *v = tokens.number(&format!("{tag} value {}", k + 1))?;
@@ -481,7 +542,7 @@ impl<'a> Parser<'a> {
         } else {
             g2o::parse_vertex(tokens)
         }
-        .map_err(|m| self.err(line, m))?;
+        .map_err(|e| self.err(line, e.to_string()))?;
         if let Some(first) = self.seen.insert(id, line) {
             return Err(self.err(line, format!("vertex {id} already defined on line {first}")));
         }
@@ -495,7 +556,7 @@ impl<'a> Parser<'a> {
         } else {
             g2o::parse_edge(tokens)
         }
-        .map_err(|m| self.err(line, m))?;
+        .map_err(|e| self.err(line, e.to_string()))?;
         if from == to {
             return Err(self.err(line, format!("edge connects vertex {from} with itself")));
         }

@@ -5,12 +5,12 @@
 //! **(translation, rotation)**; they are swapped to the graph's (rotation, translation)
 //! order without rescaling, as GTSAM's `readG2o` does, so that costs match GTSAM's.
 
-use super::file::{parse_fields, Tokens};
+use super::file::{parse_fields, LineError, Tokens};
 use super::toro::upper_to_matrix;
 use nalgebra::{Isometry3, Matrix6, Quaternion, Translation3, UnitQuaternion};
 
 /// Parses the fields after `VERTEX_SE3:QUAT`.
-pub fn parse_vertex(tokens: &mut Tokens<'_>) -> Result<(u64, Isometry3<f64>), String> {
+pub fn parse_vertex(tokens: &mut Tokens<'_>) -> Result<(u64, Isometry3<f64>), LineError> {
     let id = tokens.id("vertex id")?;
     let v: [f64; 7] = parse_fields(tokens, "VERTEX_SE3:QUAT")?;
     tokens.finish("VERTEX_SE3:QUAT")?;
@@ -20,7 +20,7 @@ pub fn parse_vertex(tokens: &mut Tokens<'_>) -> Result<(u64, Isometry3<f64>), St
 /// Parses the fields after `EDGE_SE3:QUAT`: ids, measurement, information in GTSAM order.
 pub fn parse_edge(
     tokens: &mut Tokens<'_>,
-) -> Result<(u64, u64, Isometry3<f64>, Matrix6<f64>), String> {
+) -> Result<(u64, u64, Isometry3<f64>, Matrix6<f64>), LineError> {
     let i = tokens.id("first vertex id")?;
     let j = tokens.id("second vertex id")?;
     let v: [f64; 7] = parse_fields(tokens, "EDGE_SE3:QUAT")?;
@@ -57,11 +57,11 @@ fn pose_fields(p: &Isometry3<f64>) -> String {
     format!("{} {} {} {} {} {} {}", t.x, t.y, t.z, q.i, q.j, q.k, q.w)
 }
 
-fn pose_from_fields(v: &[f64; 7]) -> Result<Isometry3<f64>, String> {
+fn pose_from_fields(v: &[f64; 7]) -> Result<Isometry3<f64>, LineError> {
     let q = Quaternion::new(v[6], v[3], v[4], v[5]);
     let n = q.norm();
     if n.is_nan() || n <= 1e-9 {
-        return Err("quaternion has zero norm".to_string());
+        return Err(LineError::NotAPose("quaternion has zero norm"));
     }
     Ok(Isometry3::from_parts(
         Translation3::new(v[0], v[1], v[2]),
@@ -101,6 +101,6 @@ mod tests {
     #[test]
     fn zero_quaternion_is_refused() {
         let e = parse_vertex(&mut Tokens::new("0 1 2 3 0 0 0 0"));
-        assert!(e.unwrap_err().contains("quaternion"));
+        assert!(e.unwrap_err().to_string().contains("quaternion"));
     }
 }

@@ -29,12 +29,35 @@ pub(crate) fn chordal_initialize(
     if system.dim() == 0 {
         return Ok(true);
     }
+    let Some(rotations) = chordal_rotations(&mut system, poses, factors) else {
+        return Ok(false);
+    };
+    let mut laplacian =
+        NormalEquations::<1>::analyse_with_order(held, factors, Some(&system.order))?;
+    let Some(translations) = chordal_translations(&mut laplacian, poses, factors, &rotations)
+    else {
+        return Ok(false);
+    };
+    for (blk, &v) in laplacian.var_of.iter().enumerate() {
+        let q =
+            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rotations[v]));
+        poses[v] = Isometry3::from_parts(Translation3::from(translations[blk]), q);
+    }
+    Ok(true)
+}
+
+/// The chordal rotations: every pose's rotation (the held ones as they are), the free ones
+/// solved one row k at a time as the relaxation `x_v = (row k of R_v)ᵀ`, residual
+/// `x_b − Zᵀ x_a`, then projected onto SO(3); `None` if the system is singular. The three
+/// right-hand sides are solved together, in one pass over the factor.
+fn chordal_rotations(
+    system: &mut NormalEquations<3>,
+    poses: &[Isometry3<f64>],
+    factors: &[Factor],
+) -> Option<Vec<Matrix3<f64>>> {
     let rotation_matrix = |p: &Isometry3<f64>| p.rotation.to_rotation_matrix().into_inner();
     let rotations: Vec<Matrix3<f64>> = poses.iter().map(rotation_matrix).collect();
     let identity = Matrix3::identity();
-
-    // Rotations, one row k at a time: x_v = (row k of R_v)ᵀ, residual x_b − Zᵀ x_a. The
-    // three right-hand sides −g_k are solved together, in one pass over the factor.
     let n = system.dim();
     let mut steps = vec![0.0; 3 * n];
     for k in 0..3 {
@@ -76,7 +99,7 @@ pub(crate) fn chordal_initialize(
     if !system.factorize_damped_in(precision, |_, _| 0.0)
         || !system.solve_columns(&mut steps, 3, true)
     {
-        return Ok(false);
+        return None;
     }
     let mut new_rotations = rotations.clone();
     for (blk, &v) in system.var_of.iter().enumerate() {
@@ -88,12 +111,20 @@ pub(crate) fn chordal_initialize(
         }
         new_rotations[v] = project_to_so3(&row);
     }
+    Some(new_rotations)
+}
 
-    // Translations with the rotations held. With the translation information replaced by
-    // its mean eigenvalue w, the residual w‖t_b − t_a − R_a t_z‖² is one weighted graph
-    // Laplacian per coordinate: a scalar system, 27× cheaper than the 3×3-block one.
-    let mut laplacian =
-        NormalEquations::<1>::analyse_with_order(held, factors, Some(&system.order))?;
+/// The chordal translations of the free variables (indexed by the Laplacian's blocks) with
+/// the `rotations` held; `None` if the system is singular. With the translation
+/// information replaced by its mean eigenvalue w, the residual `w‖t_b − t_a − R_a t_z‖²` is
+/// one weighted graph Laplacian per coordinate: a scalar system, 27× cheaper than the
+/// 3×3-block one.
+fn chordal_translations(
+    laplacian: &mut NormalEquations<1>,
+    poses: &[Isometry3<f64>],
+    factors: &[Factor],
+    rotations: &[Matrix3<f64>],
+) -> Option<Vec<Vector3<f64>>> {
     let m = laplacian.dim();
     let mut steps = vec![0.0; 3 * m];
     let one = SMatrix::<f64, 1, 1>::identity();
@@ -112,7 +143,7 @@ pub(crate) fn chordal_initialize(
             let (jac_a, residual) = if f.is_unary() {
                 (one, ta[c] - z.translation.vector[c])
             } else {
-                let d = new_rotations[a] * z.translation.vector;
+                let d = rotations[a] * z.translation.vector;
                 let tb = poses[b].translation.vector;
                 (-one, tb[c] - ta[c] - d[c])
             };
@@ -131,17 +162,18 @@ pub(crate) fn chordal_initialize(
         }
     }
     if !laplacian.factorize_damped(|_, _| 0.0) || !laplacian.solve_columns(&mut steps, 3, true) {
-        return Ok(false);
+        return None;
     }
-    for (blk, &v) in laplacian.var_of.iter().enumerate() {
-        let t = poses[v].translation.vector;
-        let [x, y, z] = [0, 1, 2].map(|c| t[c] + steps[c * m + blk]);
-        let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
-            new_rotations[v],
-        ));
-        poses[v] = Isometry3::from_parts(Translation3::new(x, y, z), q);
-    }
-    Ok(true)
+    let translations = laplacian
+        .var_of
+        .iter()
+        .enumerate()
+        .map(|(blk, &v)| {
+            let t = poses[v].translation.vector;
+            Vector3::from([0, 1, 2].map(|c| t[c] + steps[c * m + blk]))
+        })
+        .collect();
+    Some(translations)
 }
 
 /// Nearest rotation in the Frobenius norm: the orthogonal polar factor by Newton's

@@ -11,6 +11,7 @@
 //! landmark starts where its first observing camera puts it, every observation has isotropic
 //! pixel noise, the first pose is fixed.
 
+use super::file::LineError;
 use super::stereo::StereoCalibration;
 use super::{GraphError, PoseGraph, RobustKernel, VarKey};
 use nalgebra::Vector3;
@@ -136,7 +137,7 @@ pub fn read_poses(path: &Path) -> Result<Vec<(u64, Isometry3<f64>)>, GraphError>
             ));
         }
         let m = Matrix4::from_row_slice(&v[1..17]);
-        let pose = isometry_of(&m).map_err(|message| parse_error(path, line, message))?;
+        let pose = isometry_of(&m).map_err(|e| parse_error(path, line, e.to_string()))?;
         poses.push((id, pose));
     }
     if poses.is_empty() {
@@ -147,18 +148,18 @@ pub fn read_poses(path: &Path) -> Result<Vec<(u64, Isometry3<f64>)>, GraphError>
 
 /// The isometry of a homogeneous matrix whose rotation is orthonormal to 1e-3 (files print
 /// a few digits); the rotation is projected onto SO(3).
-fn isometry_of(m: &Matrix4<f64>) -> Result<Isometry3<f64>, String> {
+fn isometry_of(m: &Matrix4<f64>) -> Result<Isometry3<f64>, LineError> {
     let bottom = m.fixed_view::<1, 4>(3, 0);
     if (bottom - nalgebra::RowVector4::new(0.0, 0.0, 0.0, 1.0))
         .abs()
         .max()
         > 1e-9
     {
-        return Err("the matrix's last row is not 0 0 0 1".into());
+        return Err(LineError::NotAPose("the matrix's last row is not 0 0 0 1"));
     }
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
     if (r.transpose() * r - Matrix3::identity()).abs().max() > 1e-3 || r.determinant() <= 0.0 {
-        return Err("the rotation block is not a rotation".into());
+        return Err(LineError::NotAPose("the rotation block is not a rotation"));
     }
     let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
     let t = m.fixed_view::<3, 1>(0, 3).into_owned();

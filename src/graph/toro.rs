@@ -5,7 +5,7 @@
 //! upper triangle, row by row, in the order **(x, y, z, roll, pitch, yaw)**; they are
 //! converted to and from the graph's (rotation, translation) order here.
 
-use super::file::{parse_fields, Tokens};
+use super::file::{parse_fields, LineError, Tokens};
 use super::se3;
 use nalgebra::{Isometry3, Matrix6, Translation3};
 
@@ -14,7 +14,7 @@ use nalgebra::{Isometry3, Matrix6, Translation3};
 const TORO_OF_GTSAM: [usize; 6] = [3, 4, 5, 0, 1, 2];
 
 /// Parses the fields after `VERTEX3`: id and pose.
-pub fn parse_vertex(tokens: &mut Tokens<'_>) -> Result<(u64, Isometry3<f64>), String> {
+pub fn parse_vertex(tokens: &mut Tokens<'_>) -> Result<(u64, Isometry3<f64>), LineError> {
     let id = tokens.id("vertex id")?;
     let v: [f64; 6] = parse_fields(tokens, "VERTEX3")?;
     tokens.finish("VERTEX3")?;
@@ -24,7 +24,7 @@ pub fn parse_vertex(tokens: &mut Tokens<'_>) -> Result<(u64, Isometry3<f64>), St
 /// Parses the fields after `EDGE3`: ids, measurement and information in GTSAM order.
 pub fn parse_edge(
     tokens: &mut Tokens<'_>,
-) -> Result<(u64, u64, Isometry3<f64>, Matrix6<f64>), String> {
+) -> Result<(u64, u64, Isometry3<f64>, Matrix6<f64>), LineError> {
     let i = tokens.id("first vertex id")?;
     let j = tokens.id("second vertex id")?;
     let v: [f64; 6] = parse_fields(tokens, "EDGE3")?;
