@@ -45,6 +45,7 @@ mod greedy;
 mod polish;
 mod relaxation;
 mod rng;
+mod tolerance;
 #[cfg(test)]
 mod testutil;
 
@@ -55,3 +56,4 @@ pub use densest::{densest_clique, CliqueSolution, DensestCliqueConfig};
 pub use error::ClipperError;
 pub use exact::{max_clique, MaxCliqueLimits};
 pub use graph::ConsistencyGraph;
+pub use tolerance::{PointVariances, ToleranceSummary};

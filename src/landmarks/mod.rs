@@ -8,12 +8,14 @@
 
 pub mod cluster;
 pub mod estimate;
+pub mod from_grid;
 pub mod from_points;
 pub mod size_bias;
 pub mod stereo_noise;
 pub mod view_bias;
 
 pub use estimate::CentroidEstimator;
+pub use from_grid::{map_from_grid, GridRocksConfig};
 pub use from_points::{map_from_points, PointsMapOptions};
 use segloc_maps::{Detection, DetectionSet, ObjectMap};
 use serde::{Deserialize, Serialize};
