@@ -42,6 +42,7 @@ mod exact;
 mod front;
 mod graph;
 mod greedy;
+mod loose_partners;
 mod polish;
 mod relaxation;
 mod rng;

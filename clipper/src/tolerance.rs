@@ -54,6 +54,12 @@ pub struct ToleranceSummary {
 impl ConsistencyGraph {
     /// [`ConsistencyGraph::build`] with each pair's thresholds from the points' variances
     /// (see the module docs), and what thresholds were used.
+    ///
+    /// Pairs of two *tight* associations (each of whose variances, doubled, stays within
+    /// the floor) are decided by the plain build. When only a few associations are loose,
+    /// their pairs are found from each loose association's sorted distances
+    /// ([`crate::loose_partners`]); when most are (a grid map), the graph is built with the
+    /// widest thresholds and every edge re-tested with its own.
     pub fn build_with_variances(
         prior: &[Point3<f64>],
         query: &[Point3<f64>],
@@ -62,76 +68,25 @@ impl ConsistencyGraph {
         variances: &PointVariances<'_>,
     ) -> Result<(Self, ToleranceSummary), ClipperError> {
         let base = PairTest::new(invariant)?;
-        check_variances("prior", variances.prior, prior.len())?;
-        check_variances("query", variances.query, query.len())?;
-        if base.gravity {
-            check_variances("prior", variances.prior_z, prior.len())?;
-            check_variances("query", variances.query_z, query.len())?;
-        }
-        let k = variances.multiplier;
-        for (name, value) in [
-            ("multiplier", k),
-            ("max_epsilon", variances.max_epsilon),
-            ("max_epsilon_z", variances.max_epsilon_z),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(ClipperError::InvalidParameter { name, value });
-            }
-        }
-        let cap = (
-            variances.max_epsilon.max(base.epsilon),
-            variances.max_epsilon_z.max(base.epsilon_z),
-        );
-        let of = |a: &[f64], b: &[f64]| -> Vec<f64> {
-            associations
-                .iter()
-                .map(|u| a[u.prior as usize] + b[u.query as usize])
-                .collect()
-        };
-        let var = of(variances.prior, variances.query);
-        let var_z = if base.gravity {
-            of(variances.prior_z, variances.query_z)
-        } else {
-            vec![0.0; associations.len()]
-        };
-        let max_of = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
-        let epsilon_max = base.epsilon.max(k * (2.0 * max_of(&var)).sqrt()).min(cap.0);
-        let epsilon_z_max = if base.gravity {
-            base.epsilon_z
-                .max(k * (2.0 * max_of(&var_z)).sqrt())
-                .min(cap.1)
-        } else {
-            0.0
-        };
-        let mut sorted = var.clone();
-        sorted.sort_unstable_by(f64::total_cmp);
-        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-        let mut summary = ToleranceSummary {
-            widened: epsilon_max > base.epsilon || (base.gravity && epsilon_z_max > base.epsilon_z),
-            epsilon_max,
-            epsilon_z_max,
-            epsilon_median: base.epsilon.max(k * (2.0 * median).sqrt()).min(cap.0),
-        };
-        if !summary.widened {
-            summary.epsilon_max = base.epsilon;
+        let pair = PairThresholds::new(&base, associations, variances, prior.len(), query.len())?;
+        let summary = pair.summary();
+        let loose: Vec<bool> = (0..associations.len()).map(|u| pair.is_loose(u)).collect();
+        let loose_count = loose.iter().filter(|&&l| l).count();
+        if loose_count == 0 {
             let graph = Self::build(prior, query, associations, invariant)?;
             return Ok((graph, summary));
         }
-        let wide = widened(invariant, epsilon_max, epsilon_z_max);
+        if loose_count * 4 <= associations.len() {
+            if let Some(edges) =
+                crate::loose_partners::edges(prior, query, associations, invariant, &pair, &loose)?
+            {
+                return Ok((Self::from_edge_list(associations.len(), &edges), summary));
+            }
+        }
+        let wide = widened(invariant, pair.epsilon_max, pair.epsilon_z_max);
         let candidates = Self::build(prior, query, associations, &wide)?;
-        let pair = PairThresholds {
-            test: base,
-            var: &var,
-            var_z: &var_z,
-            multiplier: k,
-            epsilon_max,
-            epsilon_z_max,
-        };
         let edges = pair.filter(&candidates, prior, query, associations);
-        Ok((
-            Self::from_edge_list(associations.len(), &edges),
-            summary,
-        ))
+        Ok((Self::from_edge_list(associations.len(), &edges), summary))
     }
 }
 
@@ -166,16 +121,147 @@ fn widened(invariant: &Invariant, epsilon: f64, epsilon_z: f64) -> Invariant {
 }
 
 /// Each pair's own thresholds and weight.
-struct PairThresholds<'a> {
-    test: PairTest,
-    var: &'a [f64],
-    var_z: &'a [f64],
+pub(crate) struct PairThresholds {
+    pub test: PairTest,
+    /// Variance of each association's residual contribution (prior + query point).
+    var: Vec<f64>,
+    /// Same for the height (4-DOF; zeros otherwise).
+    var_z: Vec<f64>,
     multiplier: f64,
-    epsilon_max: f64,
-    epsilon_z_max: f64,
+    /// Largest threshold any pair can get (capped).
+    pub epsilon_max: f64,
+    /// Largest height threshold any pair can get (capped; 0 for 6-DOF).
+    pub epsilon_z_max: f64,
 }
 
-impl PairThresholds<'_> {
+impl PairThresholds {
+    fn new(
+        base: &PairTest,
+        associations: &[Association],
+        variances: &PointVariances<'_>,
+        n_prior: usize,
+        n_query: usize,
+    ) -> Result<Self, ClipperError> {
+        check_variances("prior", variances.prior, n_prior)?;
+        check_variances("query", variances.query, n_query)?;
+        if base.gravity {
+            check_variances("prior", variances.prior_z, n_prior)?;
+            check_variances("query", variances.query_z, n_query)?;
+        }
+        let k = variances.multiplier;
+        for (name, value) in [
+            ("multiplier", k),
+            ("max_epsilon", variances.max_epsilon),
+            ("max_epsilon_z", variances.max_epsilon_z),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ClipperError::InvalidParameter { name, value });
+            }
+        }
+        let of = |a: &[f64], b: &[f64]| -> Vec<f64> {
+            associations
+                .iter()
+                .map(|u| a[u.prior as usize] + b[u.query as usize])
+                .collect()
+        };
+        let var = of(variances.prior, variances.query);
+        let var_z = if base.gravity {
+            of(variances.prior_z, variances.query_z)
+        } else {
+            vec![0.0; associations.len()]
+        };
+        let max_of = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+        let widest = |floor: f64, cap: f64, var: f64| floor.max(k * (2.0 * var).sqrt()).min(cap.max(floor));
+        Ok(Self {
+            test: *base,
+            epsilon_max: widest(base.epsilon, variances.max_epsilon, max_of(&var)),
+            epsilon_z_max: if base.gravity {
+                widest(base.epsilon_z, variances.max_epsilon_z, max_of(&var_z))
+            } else {
+                0.0
+            },
+            var,
+            var_z,
+            multiplier: k,
+        })
+    }
+
+    /// [`Self::new`] from an invariant, for tests.
+    #[cfg(test)]
+    pub fn for_tests(
+        invariant: &Invariant,
+        associations: &[Association],
+        variances: &PointVariances<'_>,
+        n_prior: usize,
+        n_query: usize,
+    ) -> Self {
+        let base = PairTest::new(invariant).unwrap();
+        Self::new(&base, associations, variances, n_prior, n_query).unwrap()
+    }
+
+    /// Whether a pair of association `u` with itself would exceed a floor: only pairs with
+    /// a loose association can.
+    fn is_loose(&self, u: usize) -> bool {
+        let k2 = self.multiplier * self.multiplier;
+        2.0 * k2 * self.var[u] > self.test.epsilon * self.test.epsilon
+            || (self.test.gravity && 2.0 * k2 * self.var_z[u] > self.test.epsilon_z.powi(2))
+    }
+
+    fn summary(&self) -> ToleranceSummary {
+        let t = &self.test;
+        let mut sorted = self.var.clone();
+        sorted.sort_unstable_by(f64::total_cmp);
+        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+        let widened = self.epsilon_max > t.epsilon || (t.gravity && self.epsilon_z_max > t.epsilon_z);
+        ToleranceSummary {
+            widened,
+            epsilon_max: self.epsilon_max,
+            epsilon_z_max: self.epsilon_z_max,
+            epsilon_median: t
+                .epsilon
+                .max(self.multiplier * (2.0 * median).sqrt())
+                .min(self.epsilon_max),
+        }
+    }
+
+    /// The edge weight of associations `u` and `v` under their own thresholds, or `None`
+    /// (also when they share a point).
+    pub fn edge(
+        &self,
+        u: usize,
+        v: usize,
+        prior: &[Point3<f64>],
+        query: &[Point3<f64>],
+        associations: &[Association],
+    ) -> Option<f32> {
+        let t = &self.test;
+        let (a, b) = (associations[u], associations[v]);
+        if a.prior == b.prior || a.query == b.query {
+            return None;
+        }
+        let (a, b) = if a.prior < b.prior { (a, b) } else { (b, a) };
+        let mp = t.measure(&prior[a.prior as usize], &prior[b.prior as usize]);
+        let mq = t.measure(&query[a.query as usize], &query[b.query as usize]);
+        let scale = |floor: f64, cap: f64, var: f64| {
+            floor.max(self.multiplier * var.sqrt()).min(cap) / floor
+        };
+        let s = scale(t.epsilon, self.epsilon_max, self.var[u] + self.var[v]);
+        let c = (mp.dist - mq.dist).abs();
+        if c >= t.epsilon * s {
+            return None;
+        }
+        let mut x = c * c * t.inv_two_sigma_sq / (s * s);
+        if t.gravity {
+            let sz = scale(t.epsilon_z, self.epsilon_z_max, self.var_z[u] + self.var_z[v]);
+            let cz = (mp.dz - mq.dz).abs();
+            if cz >= t.epsilon_z * sz {
+                return None;
+            }
+            x += cz * cz * t.inv_two_sigma_z_sq / (sz * sz);
+        }
+        Some(exp_neg(x as f32))
+    }
+
     /// The edges of `candidates` (built with the widest thresholds) that pass their own
     /// pair's thresholds, with their own weights; each undirected edge once.
     fn filter(
@@ -185,33 +271,12 @@ impl PairThresholds<'_> {
         query: &[Point3<f64>],
         associations: &[Association],
     ) -> Vec<(u32, u32, f32)> {
-        let t = &self.test;
         let mut edges = Vec::with_capacity(candidates.num_edges());
         for u in 0..candidates.num_vertices() {
             for &v in candidates.neighbors(u).iter().filter(|&&v| v as usize > u) {
-                let (a, b) = (associations[u], associations[v as usize]);
-                let (a, b) = if a.prior < b.prior { (a, b) } else { (b, a) };
-                let mp = t.measure(&prior[a.prior as usize], &prior[b.prior as usize]);
-                let mq = t.measure(&query[a.query as usize], &query[b.query as usize]);
-                let scale = |floor: f64, cap: f64, var: f64| {
-                    floor.max(self.multiplier * var.sqrt()).min(cap) / floor
-                };
-                let s = scale(t.epsilon, self.epsilon_max, self.var[u] + self.var[v as usize]);
-                let c = (mp.dist - mq.dist).abs();
-                if c >= t.epsilon * s {
-                    continue;
+                if let Some(w) = self.edge(u, v as usize, prior, query, associations) {
+                    edges.push((u as u32, v, w));
                 }
-                let mut x = c * c * t.inv_two_sigma_sq / (s * s);
-                if t.gravity {
-                    let var_z = self.var_z[u] + self.var_z[v as usize];
-                    let sz = scale(t.epsilon_z, self.epsilon_z_max, var_z);
-                    let cz = (mp.dz - mq.dz).abs();
-                    if cz >= t.epsilon_z * sz {
-                        continue;
-                    }
-                    x += cz * cz * t.inv_two_sigma_z_sq / (sz * sz);
-                }
-                edges.push((u as u32, v, exp_neg(x as f32)));
             }
         }
         edges
