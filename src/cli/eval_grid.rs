@@ -33,9 +33,12 @@ pub struct GridArgs {
     /// acceptance is wrong.
     #[arg(long)]
     pub negatives: bool,
-    /// Seed of the transforms.
+    /// Seed of the transforms (and of the extra rocks).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Add this many synthetic single-cell rocks to the prior (timing a larger site).
+    #[arg(long, default_value_t = 0)]
+    pub extra_rocks: usize,
     /// Print one JSON object (every query included).
     #[arg(long)]
     pub json: bool,
@@ -65,6 +68,7 @@ pub fn run(args: &GridArgs, config: &RelocalizeConfig) -> Result<i32> {
         submap_s: args.submap_s,
         negatives: args.negatives,
         seed: args.seed,
+        extra_rocks: args.extra_rocks,
     };
     let report = evaluate_grid(&args.data, &options, config, |_, _| {})?;
     if args.json {

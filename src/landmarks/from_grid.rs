@@ -7,7 +7,8 @@
 //! x and y (uniform, so a variance of `cell²/12` per axis), and its height is the cells'
 //! mean terrain height, which a detected boulder centroid matches only to
 //! [`GridRocksConfig::height_sigma_m`] (plus the spread of the cells' heights). The size is
-//! the cluster's largest horizontal extent (cells × cell size).
+//! the cluster's largest horizontal extent (cells × cell size). No detection went into it,
+//! so its `observations` is 0: the relocalizer treats such a map as a survey prior.
 
 use nalgebra::{Matrix3, Point3};
 use segloc_maps::{LacGrid, Landmark, MapError, ObjectMap};
@@ -155,7 +156,8 @@ fn rock_landmark(
         Matrix3::from_diagonal(&nalgebra::Vector3::new(var_xy, var_xy, var_z)),
     );
     landmark.size_m = Some(size);
-    landmark.observations = cells.len() as u32;
+    // no detection was fused: a survey landmark (see `AssociationConfig::max_associations`)
+    landmark.observations = 0;
     Ok(landmark)
 }
 
@@ -209,8 +211,10 @@ mod tests {
         let g = grid_with_rocks(6, &[(0, 0), (1, 1), (4, 0), (4, 1), (5, 1), (3, 4)]);
         let map = map_from_grid(&g, &GridRocksConfig::default(), "site").unwrap();
         assert_eq!(map.len(), 3);
-        let sizes: Vec<u32> = map.landmarks.iter().map(|l| l.observations).collect();
-        assert_eq!(sizes, vec![2, 1, 3]);
+        let sizes: Vec<f64> = map.landmarks.iter().filter_map(|l| l.size_m).collect();
+        assert_eq!(sizes.len(), 3);
+        assert!((sizes[1] - 0.15).abs() < 1e-12 && (sizes[2] - 0.3).abs() < 1e-12);
+        assert!(map.landmarks.iter().all(|l| l.observations == 0));
         // the diagonal pair's centre: between cells (0,0) and (1,1)
         let (c0, c1) = (g.cell_center(0, 0), g.cell_center(1, 1));
         let p = map.landmarks[0].position;

@@ -62,6 +62,13 @@ pub struct AssociationConfig {
     /// A map with more landmarks than this offers only its this-many most observed ones
     /// as association candidates (refinement and verification still use all of them).
     pub max_landmarks: usize,
+    /// A survey prior (every landmark with 0 observations: a rock grid, an orbital map)
+    /// offers all its landmarks, since no detection count ranks them; the query then offers
+    /// its most observed `max_associations / prior landmarks` ones (within
+    /// `min_query_landmarks..=max_landmarks`). Session maps never reach it (120 × 120).
+    pub max_associations: usize,
+    /// See `max_associations`.
+    pub min_query_landmarks: usize,
 }
 
 impl Default for AssociationConfig {
@@ -69,6 +76,8 @@ impl Default for AssociationConfig {
         Self {
             max_size_ratio: 2.0,
             max_landmarks: 120,
+            max_associations: 14_400,
+            min_query_landmarks: 16,
         }
     }
 }

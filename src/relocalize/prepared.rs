@@ -84,6 +84,12 @@ impl PreparedMap {
         order
     }
 
+    /// Whether every landmark has 0 observations: a survey map (a rock grid), whose
+    /// landmarks no detection count ranks.
+    pub fn is_survey(&self) -> bool {
+        self.observations.iter().all(|&o| o == 0)
+    }
+
     /// Whether the map has no landmarks (never true once prepared).
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
