@@ -147,8 +147,10 @@ impl Tolerances {
         out.refine.cauchy_scale_m *= s;
         out.verification.same_hypothesis_m *= s;
         // a wider inlier gate lets more landmarks fall in it by chance (measured on mirrored
-        // traverses against the 0.15 m grid: 5 of 340 accepted with 6 inliers)
-        out.verification.min_inliers = (config.verification.min_inliers as f64 * s).ceil() as usize;
+        // traverses against the 0.15 m grid: 5 of 340 accepted with 6 inliers); linear in the
+        // scale refused most traverses at 0.45 m (28 inliers needed), so its square root
+        out.verification.min_inliers =
+            (config.verification.min_inliers as f64 * s.sqrt()).ceil() as usize;
         Some(out)
     }
 }
