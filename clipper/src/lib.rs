@@ -46,9 +46,9 @@ mod loose_partners;
 mod polish;
 mod relaxation;
 mod rng;
-mod tolerance;
 #[cfg(test)]
 mod testutil;
+mod tolerance;
 
 pub use association::{Association, Invariant};
 pub use build::{choose_strategy, BuildStrategy};

@@ -67,7 +67,11 @@ pub(crate) fn edges(
                     continue;
                 }
                 if let Some(w) = pair.edge(u, v as usize, prior, query, associations) {
-                    let (a, b) = if (v as usize) < u { (v, u as u32) } else { (u as u32, v) };
+                    let (a, b) = if (v as usize) < u {
+                        (v, u as u32)
+                    } else {
+                        (u as u32, v)
+                    };
                     out.push((a, b, w));
                 }
             }

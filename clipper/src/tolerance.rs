@@ -100,7 +100,10 @@ fn check_variances(map: &'static str, v: &[f64], n: usize) -> Result<(), Clipper
     if let Some(k) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
         return Err(ClipperError::InvalidVariances {
             map,
-            reason: format!("point {k}'s variance {} is not a finite non-negative number", v[k]),
+            reason: format!(
+                "point {k}'s variance {} is not a finite non-negative number",
+                v[k]
+            ),
         });
     }
     Ok(())
@@ -171,7 +174,8 @@ impl PairThresholds {
             vec![0.0; associations.len()]
         };
         let max_of = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
-        let widest = |floor: f64, cap: f64, var: f64| floor.max(k * (2.0 * var).sqrt()).min(cap.max(floor));
+        let widest =
+            |floor: f64, cap: f64, var: f64| floor.max(k * (2.0 * var).sqrt()).min(cap.max(floor));
         Ok(Self {
             test: *base,
             epsilon_max: widest(base.epsilon, variances.max_epsilon, max_of(&var)),
@@ -212,7 +216,8 @@ impl PairThresholds {
         let mut sorted = self.var.clone();
         sorted.sort_unstable_by(f64::total_cmp);
         let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-        let widened = self.epsilon_max > t.epsilon || (t.gravity && self.epsilon_z_max > t.epsilon_z);
+        let widened =
+            self.epsilon_max > t.epsilon || (t.gravity && self.epsilon_z_max > t.epsilon_z);
         ToleranceSummary {
             widened,
             epsilon_max: self.epsilon_max,
@@ -252,7 +257,11 @@ impl PairThresholds {
         }
         let mut x = c * c * t.inv_two_sigma_sq / (s * s);
         if t.gravity {
-            let sz = scale(t.epsilon_z, self.epsilon_z_max, self.var_z[u] + self.var_z[v]);
+            let sz = scale(
+                t.epsilon_z,
+                self.epsilon_z_max,
+                self.var_z[u] + self.var_z[v],
+            );
             let cz = (mp.dz - mq.dz).abs();
             if cz >= t.epsilon_z * sz {
                 return None;
@@ -291,7 +300,11 @@ mod tests {
     fn pair() -> (Vec<Point3<f64>>, Vec<Point3<f64>>, Vec<Association>) {
         let prior = vec![Point3::new(0.0, 0.0, 0.0), Point3::new(2.0, 0.0, 0.0)];
         let query = vec![Point3::new(5.0, 5.0, 0.0), Point3::new(5.0, 7.12, 0.0)];
-        (prior, query, vec![Association::new(0, 0), Association::new(1, 1)])
+        (
+            prior,
+            query,
+            vec![Association::new(0, 0), Association::new(1, 1)],
+        )
     }
 
     fn inv() -> Invariant {
@@ -315,8 +328,7 @@ mod tests {
             max_epsilon: 0.5,
             max_epsilon_z: 0.25,
         };
-        ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv(), &variances)
-            .unwrap()
+        ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv(), &variances).unwrap()
     }
 
     #[test]
@@ -355,7 +367,11 @@ mod tests {
             max_epsilon: 0.5,
             max_epsilon_z: 0.25,
         };
-        let err = ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv(), &variances);
-        assert!(matches!(err, Err(ClipperError::InvalidVariances { map: "prior", .. })));
+        let err =
+            ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv(), &variances);
+        assert!(matches!(
+            err,
+            Err(ClipperError::InvalidVariances { map: "prior", .. })
+        ));
     }
 }

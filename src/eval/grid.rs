@@ -186,7 +186,13 @@ pub fn grid_prior(
     let grid = coarsened(&truth, factor as usize);
     let mut map =
         map_from_grid(&grid, &GridRocksConfig::default(), "grid").map_err(|e| e.in_file(&path))?;
-    add_synthetic_rocks(&mut map, extra_rocks, grid.half_extent_m(), grid.cell_size_m, seed);
+    add_synthetic_rocks(
+        &mut map,
+        extra_rocks,
+        grid.half_extent_m(),
+        grid.cell_size_m,
+        seed,
+    );
     Ok(map)
 }
 
@@ -211,7 +217,8 @@ fn add_synthetic_rocks(
         let x = rng.random_range(-half_extent_m..half_extent_m);
         let y = rng.random_range(-half_extent_m..half_extent_m);
         let nearest = map.landmarks.iter().min_by(|a, b| {
-            let d = |l: &segloc_maps::Landmark| (l.position.x - x).powi(2) + (l.position.y - y).powi(2);
+            let d =
+                |l: &segloc_maps::Landmark| (l.position.x - x).powi(2) + (l.position.y - y).powi(2);
             d(a).total_cmp(&d(b))
         });
         let Some(nearest) = nearest else {
@@ -329,7 +336,11 @@ impl GridTrial {
         ) else {
             return;
         };
-        let t = if kind == QueryKind::Submap { rover } else { origin };
+        let t = if kind == QueryKind::Submap {
+            rover
+        } else {
+            origin
+        };
         self.within_5cm = kind != QueryKind::Negative && t <= 0.05 && r <= 0.3;
         self.within_15cm = kind != QueryKind::Negative && t <= 0.15 && r <= FALSE_ACCEPT_DEG;
         self.wrong = kind == QueryKind::Negative
@@ -448,7 +459,11 @@ fn summarize(queries: &[GridTrial], kind: QueryKind) -> KindSummary {
             .filter(|&&n| all_of(n, |q| q.within_15cm))
             .count(),
         cpu_ms_median: if cpu.is_empty() { 0.0 } else { median(&cpu) },
-        time_ms_median: if times.is_empty() { 0.0 } else { median(&times) },
+        time_ms_median: if times.is_empty() {
+            0.0
+        } else {
+            median(&times)
+        },
         time_ms_max: times.iter().copied().fold(0.0, f64::max),
         max_error_m: good()
             .filter_map(|q| q.translation_error_m)

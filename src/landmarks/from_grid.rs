@@ -85,8 +85,10 @@ pub fn map_from_grid(
             config.min_cells
         )));
     }
-    map.notes
-        .insert("source".into(), format!("rock grid, {} m cells", grid.cell_size_m));
+    map.notes.insert(
+        "source".into(),
+        format!("rock grid, {} m cells", grid.cell_size_m),
+    );
     Ok(map)
 }
 

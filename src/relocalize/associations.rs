@@ -23,7 +23,10 @@ pub fn candidate_associations(
         let limit = per_prior.clamp(config.min_query_landmarks, config.max_landmarks.max(1));
         ((0..prior.len()).collect(), limit)
     } else {
-        (prior.best_observed(config.max_landmarks), config.max_landmarks)
+        (
+            prior.best_observed(config.max_landmarks),
+            config.max_landmarks,
+        )
     };
     let query_candidates = query.best_observed(query_limit);
     let mut out = Vec::with_capacity(prior_candidates.len() * query_candidates.len());
