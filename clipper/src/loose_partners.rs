@@ -13,6 +13,9 @@ use nalgebra::Point3;
 use crate::tolerance::PairThresholds;
 use crate::{Association, ClipperError, ConsistencyGraph, Invariant};
 
+/// An undirected edge `(u, v, weight)`.
+pub(crate) type WeightedEdge = (u32, u32, f32);
+
 /// Largest dense (prior × query) association lookup, in entries.
 const LOOKUP_LIMIT: usize = 1 << 24;
 
@@ -25,7 +28,7 @@ pub(crate) fn edges(
     invariant: &Invariant,
     pair: &PairThresholds,
     loose: &[bool],
-) -> Result<Option<Vec<(u32, u32, f32)>>, ClipperError> {
+) -> Result<Option<Vec<WeightedEdge>>, ClipperError> {
     let (n_p, n_q) = (prior.len(), query.len());
     if n_p.saturating_mul(n_q) > LOOKUP_LIMIT {
         return Ok(None);
@@ -85,8 +88,8 @@ mod tests {
     use crate::{Association, ConsistencyGraph, Invariant, PointVariances};
     use nalgebra::Point3;
 
-    /// Both builders of a covariance-driven graph agree: few loose associations (the
-    /// sorted-distance path) and many (the widest build, filtered).
+    /// The sorted-distance path (few loose associations) finds exactly the pairs that pass
+    /// their own thresholds, checked pair by pair.
     #[test]
     fn loose_partner_edges_match_the_filtered_build() {
         let mut rng = crate::rng::SplitMix64::new(11);
@@ -125,9 +128,6 @@ mod tests {
         let few = ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv, &v(&var_p))
             .unwrap()
             .0;
-        // the same thresholds through the filtered build: make every association loose
-        // without changing any pair's threshold above the floor... instead compare with a
-        // direct pair-by-pair evaluation.
         let (_, summary) =
             ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv, &v(&var_p))
                 .unwrap();
