@@ -91,7 +91,7 @@ mod tests {
     /// The sorted-distance path (few loose associations) finds exactly the pairs that pass
     /// their own thresholds, checked pair by pair.
     #[test]
-    fn loose_partner_edges_match_the_filtered_build() {
+    fn loose_partner_edges_are_the_pairs_within_their_own_thresholds() {
         let mut rng = crate::rng::SplitMix64::new(11);
         let mut coord = |scale: f64| (rng.below(1_000_000) as f64 / 1e6 - 0.5) * scale;
         let prior: Vec<Point3<f64>> = (0..40)
@@ -116,23 +116,23 @@ mod tests {
         var_p[3] = 0.003;
         var_p[17] = 0.002;
         let var_q = vec![1e-4; 30];
-        let v = |prior: &[f64]| PointVariances {
-            prior,
+        let variances = PointVariances {
+            prior: &var_p,
             query: &var_q,
-            prior_z: prior,
+            prior_z: &var_p,
             query_z: &var_q,
             multiplier: 2.0,
             max_epsilon: 0.5,
             max_epsilon_z: 0.25,
         };
-        let few = ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv, &v(&var_p))
+        let few = ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv, &variances)
             .unwrap()
             .0;
         let (_, summary) =
-            ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv, &v(&var_p))
+            ConsistencyGraph::build_with_variances(&prior, &query, &assoc, &inv, &variances)
                 .unwrap();
         assert!(summary.widened);
-        let pair = crate::tolerance::PairThresholds::for_tests(&inv, &assoc, &v(&var_p), 40, 30);
+        let pair = crate::tolerance::PairThresholds::for_tests(&inv, &assoc, &variances, 40, 30);
         let mut expected = 0;
         for u in 0..assoc.len() {
             for w in (u + 1)..assoc.len() {
