@@ -40,7 +40,7 @@ fn coarser_grids_load_and_bad_cell_sizes_are_refused() {
     for (cell, factor) in [(0.3, 2.0), (0.45, 3.0)] {
         let map = segloc::eval::grid::grid_prior(&data, cell, 0, 1).unwrap();
         let cov = map.landmarks[0].covariance;
-        assert!((cov[(0, 0)] - (0.15 * factor as f64).powi(2) / 12.0).abs() < 1e-12);
+        assert!((cov[(0, 0)] - (0.15 * factor).powi(2) / 12.0).abs() < 1e-12);
     }
     assert!(segloc::eval::grid::grid_prior(&data, 0.2, 0, 1).is_err());
     let big = segloc::eval::grid::grid_prior(&data, 0.15, 1422, 1).unwrap();
