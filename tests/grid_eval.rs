@@ -37,7 +37,7 @@ fn coarser_grids_load_and_bad_cell_sizes_are_refused() {
     let Some(data) = common::data_dir() else {
         return;
     };
-    for (cell, factor) in [(0.3, 2.0), (0.45, 3.0)] {
+    for (cell, factor) in [(0.3, 2.0f64), (0.45, 3.0)] {
         let map = segloc::eval::grid::grid_prior(&data, cell, 0, 1).unwrap();
         let cov = map.landmarks[0].covariance;
         assert!((cov[(0, 0)] - (0.15 * factor).powi(2) / 12.0).abs() < 1e-12);
