@@ -76,4 +76,12 @@ pub enum ClipperError {
         /// Size of the best clique found before stopping.
         best_size: usize,
     },
+    /// Point variances do not match the points, or one is negative or not finite.
+    #[error("{map} variances: {reason}")]
+    InvalidVariances {
+        /// "prior" or "query".
+        map: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
 }

@@ -43,12 +43,14 @@ mod exact;
 mod front;
 mod graph;
 mod greedy;
+mod loose_partners;
 mod polish;
 mod relaxation;
 mod rng;
 mod seeded;
 #[cfg(test)]
 mod testutil;
+mod tolerance;
 
 pub use association::{Association, Invariant};
 pub use build::{choose_strategy, BuildStrategy};
@@ -58,3 +60,4 @@ pub use error::ClipperError;
 pub use exact::{max_clique, MaxCliqueLimits};
 pub use graph::ConsistencyGraph;
 pub use seeded::{edge_seeded_clique, edge_seeded_cliques, SeededSearch};
+pub use tolerance::{PointVariances, ToleranceSummary};

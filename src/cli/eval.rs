@@ -94,6 +94,9 @@ pub enum EvalCommand {
     /// Replay LunarLoc traverses frame by frame through the online localizer, each against
     /// another traverse's map, with drifting odometry; score every pose against the truth.
     Stream(StreamArgs),
+    /// Global localization: every LunarLoc traverse (and 60 s submap) against the
+    /// ground-truth rock grid, under random rigid transforms, with no prior session.
+    Grid(super::eval_grid::GridArgs),
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
         /// The data folder holding `lunarloc/` and `lac-groundtruth/`.
@@ -278,6 +281,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
             Ok(0)
         }
         EvalCommand::Stream(args) => run_stream(args, config),
+        EvalCommand::Grid(args) => super::eval_grid::run(args, config),
         EvalCommand::Landmarks { data, json } => {
             let grid = read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
             let mut rows = Vec::new();

@@ -1,12 +1,14 @@
-//! `segloc map build|info`.
+//! `segloc map build|merge|from-grid|info`.
 
 use super::print_json;
 use anyhow::{Context, Result};
 use clap::Subcommand;
 use segloc::io::load_map;
+use segloc::landmarks::from_grid::coarsened;
+use segloc::landmarks::{map_from_grid, GridRocksConfig};
 use segloc::merge::{merge_maps, MapStatus, MergeConfig};
 use segloc::relocalize::RelocalizeConfig;
-use segloc_maps::{read_map, write_map};
+use segloc_maps::{read_grid_csv, read_map, write_map};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -53,6 +55,28 @@ pub enum MapCommand {
         #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
         view_bias_sigma_m: f64,
         /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Cluster the rock cells of a LAC grid CSV (`i,j,x,y,height,rock`) into rocks and
+    /// write them as a prior map: 8-connected rock cells are one rock, its landmark at their
+    /// mean centre and height, with the cell quantisation as its covariance.
+    FromGrid {
+        /// The grid CSV.
+        grid: PathBuf,
+        /// The map file to write (atomically).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Rocks of fewer cells are left out.
+        #[arg(long, default_value_t = 1)]
+        min_cells: usize,
+        /// Coarsen the grid first by OR-ing this many cells per side (1: as it is).
+        #[arg(long, default_value_t = 1)]
+        coarsen: usize,
+        /// Session id to record.
+        #[arg(long, default_value = "grid")]
+        session: String,
+        /// Print a JSON summary.
         #[arg(long)]
         json: bool,
     },
@@ -113,6 +137,14 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             *json,
             config,
         ),
+        MapCommand::FromGrid {
+            grid,
+            output,
+            min_cells,
+            coarsen,
+            session,
+            json,
+        } => from_grid(grid, output, *min_cells, *coarsen, session, *json),
         MapCommand::Info { map, json } => {
             let m = read_map(map)?;
             let observations: u32 = m.landmarks.iter().map(|l| l.observations).sum();
@@ -141,6 +173,50 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             Ok(0)
         }
     }
+}
+
+fn from_grid(
+    grid_path: &std::path::Path,
+    output: &std::path::Path,
+    min_cells: usize,
+    coarsen: usize,
+    session: &str,
+    json: bool,
+) -> Result<i32> {
+    if coarsen == 0 {
+        anyhow::bail!("--coarsen must be at least 1");
+    }
+    let mut grid = read_grid_csv(grid_path)?;
+    if coarsen > 1 {
+        grid = coarsened(&grid, coarsen);
+    }
+    let config = GridRocksConfig {
+        min_cells,
+        ..GridRocksConfig::default()
+    };
+    let mut map = map_from_grid(&grid, &config, session)
+        .map_err(|e| e.in_file(grid_path))
+        .with_context(|| format!("building rocks from {}", grid_path.display()))?;
+    map.notes
+        .insert("grid".into(), grid_path.display().to_string());
+    write_map(&map, output).with_context(|| "writing the map")?;
+    if json {
+        print_json(&json!({
+            "output": output, "landmarks": map.len(), "rock_cells": grid.rock_count(),
+            "cell_size_m": grid.cell_size_m, "cells_per_side": grid.cells_per_side,
+            "session": map.session,
+        }))?;
+    } else {
+        println!(
+            "{} rocks from {} rock cells of {} m in {} -> {}",
+            map.len(),
+            grid.rock_count(),
+            grid.cell_size_m,
+            grid_path.display(),
+            output.display()
+        );
+    }
+    Ok(0)
 }
 
 fn merge(

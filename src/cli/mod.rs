@@ -6,6 +6,7 @@ mod config;
 mod demo;
 mod detect;
 mod eval;
+mod eval_grid;
 mod graph;
 mod graph_stereo;
 mod grid;

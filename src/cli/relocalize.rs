@@ -111,6 +111,8 @@ pub fn report(
         "graph_edges": d.graph_edges,
         "dof": d.dof,
         "tilt_aware": d.tilt_aware,
+        "tolerances": d.tolerances,
+        "max_rmse_m": d.hypotheses.first().map(|h| h.max_rmse_m),
         "time_ms": time_ms,
         "timings_ms": d.timings,
         "hypotheses": d.hypotheses,

@@ -2,12 +2,14 @@
 //!
 //! - [`lunarloc`]: relocalize pairs of traverses under random rigid transforms and compare
 //!   with the truth (all traverses share one world frame);
+//! - [`grid`]: global localization of traverses and submaps against the rock grid;
 //! - [`merge`]: map merging with traverses as agents;
 //! - [`landmark_quality`]: how well fused landmarks land on the ground-truth rock cells;
 //! - [`stream`]: traverses replayed frame by frame through the online localizer against
 //!   another traverse's map;
 //! - [`transform_error`]: the error measures.
 
+pub mod grid;
 pub mod landmark_quality;
 pub mod lunarloc;
 pub mod merge;

@@ -4,7 +4,9 @@
 //! landmark (all-to-all); when both sizes are known, pairs of very different size are
 //! left out. A large map contributes only its most observed landmarks (the consistency
 //! graph grows with the square of the candidates; refinement and verification still use
-//! every landmark). The consistency graph does the real work.
+//! every landmark). A survey prior (a rock grid: no detection counts) offers every
+//! landmark, and the query its most observed few, within a budget of associations. The
+//! consistency graph does the real work.
 
 use super::config::AssociationConfig;
 use super::prepared::PreparedMap;
@@ -16,8 +18,17 @@ pub fn candidate_associations(
     query: &PreparedMap,
     config: &AssociationConfig,
 ) -> Vec<Association> {
-    let prior_candidates = prior.best_observed(config.max_landmarks);
-    let query_candidates = query.best_observed(config.max_landmarks);
+    let (prior_candidates, query_limit) = if prior.is_survey() {
+        let per_prior = config.max_associations / prior.len().max(1);
+        let limit = per_prior.clamp(config.min_query_landmarks, config.max_landmarks.max(1));
+        ((0..prior.len()).collect(), limit)
+    } else {
+        (
+            prior.best_observed(config.max_landmarks),
+            config.max_landmarks,
+        )
+    };
+    let query_candidates = query.best_observed(query_limit);
     let mut out = Vec::with_capacity(prior_candidates.len() * query_candidates.len());
     for &i in &prior_candidates {
         for &j in &query_candidates {

@@ -62,6 +62,13 @@ pub struct AssociationConfig {
     /// A map with more landmarks than this offers only its this-many most observed ones
     /// as association candidates (refinement and verification still use all of them).
     pub max_landmarks: usize,
+    /// A survey prior (every landmark with 0 observations: a rock grid, an orbital map)
+    /// offers all its landmarks, since no detection count ranks them; the query then offers
+    /// its most observed `max_associations / prior landmarks` ones (within
+    /// `min_query_landmarks..=max_landmarks`). Session maps never reach it (120 × 120).
+    pub max_associations: usize,
+    /// See `max_associations`.
+    pub min_query_landmarks: usize,
 }
 
 impl Default for AssociationConfig {
@@ -69,6 +76,8 @@ impl Default for AssociationConfig {
         Self {
             max_size_ratio: 2.0,
             max_landmarks: 120,
+            max_associations: 14_400,
+            min_query_landmarks: 16,
         }
     }
 }
@@ -86,6 +95,15 @@ pub struct ConsistencyConfig {
     pub epsilon_z_m: f64,
     /// 4-DOF only: scale (m) of the height term of the weight.
     pub sigma_z_m: f64,
+    /// Covariance-driven tolerances: a pair of associations is consistent within this many
+    /// standard deviations of its residual (from its four landmarks' covariances), never
+    /// less than `epsilon_m` / `epsilon_z_m` (see docs/design/covariance-tolerances.md).
+    pub sigma_multiplier: f64,
+    /// Cap (m) of a pair's covariance-driven horizontal-distance (or distance) tolerance:
+    /// a few very uncertain landmarks must not make the whole graph dense.
+    pub max_epsilon_m: f64,
+    /// Cap (m) of a pair's covariance-driven height tolerance (4-DOF).
+    pub max_epsilon_z_m: f64,
 }
 
 impl Default for ConsistencyConfig {
@@ -95,6 +113,9 @@ impl Default for ConsistencyConfig {
             sigma_m: 0.04,
             epsilon_z_m: 0.06,
             sigma_z_m: 0.03,
+            sigma_multiplier: 2.0,
+            max_epsilon_m: 0.5,
+            max_epsilon_z_m: 0.12,
         }
     }
 }
@@ -149,8 +170,11 @@ impl Default for CliqueConfig {
 pub struct VerificationConfig {
     /// Fewest refined inliers (landmark pairs within the inlier threshold).
     pub min_inliers: usize,
-    /// Largest root-mean-square residual (m) over the inliers.
+    /// Largest root-mean-square residual (m) over the inliers: the floor of the gate, which
+    /// is `rmse_multiplier` times the RMS residual the inliers' covariances predict.
     pub max_rmse_m: f64,
+    /// The residual gate in predicted RMS residuals (see `max_rmse_m`).
+    pub rmse_multiplier: f64,
     /// Smallest standard deviation (m) of the inliers' positions along their minor
     /// horizontal axis: collinear or clustered inliers do not fix a yaw.
     pub min_spread_m: f64,
@@ -169,6 +193,7 @@ impl Default for VerificationConfig {
         Self {
             min_inliers: 6,
             max_rmse_m: 0.03,
+            rmse_multiplier: 1.0,
             min_spread_m: 0.3,
             max_runner_up_ratio: 0.6,
             min_runner_up_margin: 3,

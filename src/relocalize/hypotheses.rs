@@ -156,7 +156,17 @@ fn examine(
         (refined.residuals_m.iter().map(|r| r * r).sum::<f64>() / refined.residuals_m.len() as f64)
             .sqrt()
     };
+    let predicted_sq_m2 = refined
+        .inliers
+        .iter()
+        .map(|&(i, j)| 3.0 * (prior.var_3d[i as usize] + query.var_3d[j as usize]))
+        .sum::<f64>()
+        / refined.inliers.len().max(1) as f64;
+    let verification = &config.verification;
     Some(Hypothesis {
+        max_rmse_m: verification
+            .max_rmse_m
+            .max(verification.rmse_multiplier * predicted_sq_m2.sqrt()),
         clique_size: clique.len(),
         prior_from_query: transform,
         support_query: refined

@@ -30,10 +30,11 @@ pub use config::{
 pub use prepared::{PreparedMap, MIN_LANDMARKS};
 pub use result::{
     Accepted, Diagnostics, Hypothesis, Refusal, Relocalization, TiltDiagnostics, Timings,
+    Tolerances,
 };
 
 use crate::align::{information_matrix, tilt_aware_information, Dof};
-use segloc_clipper::{ClipperError, ConsistencyGraph};
+use segloc_clipper::ClipperError;
 use segloc_maps::{MapError, ObjectMap};
 use std::time::Instant;
 
@@ -127,10 +128,12 @@ impl Relocalizer {
 
         // Associations → consistency graph.
         let t = Instant::now();
-        let invariant = consistency::invariant(dof, &config.consistency);
-        let graph =
-            ConsistencyGraph::build(&prior.points, &query.points, &associations, &invariant)?;
+        let (graph, summary) =
+            consistency::build_graph(prior, &query, &associations, dof, &config.consistency)?;
         timings.graph_ms = ms_since(t);
+        let tolerances = Tolerances::from_summary(&summary, &config.consistency);
+        let scaled = tolerances.scaled(config);
+        let config = scaled.as_ref().unwrap_or(config);
 
         // Graph → cliques → aligned and refined hypotheses.
         let found =
@@ -163,6 +166,7 @@ impl Relocalizer {
                 graph_edges: graph.num_edges(),
                 dof: dof.count(),
                 tilt_aware: dof == Dof::Auto,
+                tolerances,
                 hypotheses,
                 timings,
             },

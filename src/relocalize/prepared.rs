@@ -14,6 +14,13 @@ pub struct PreparedMap {
     pub points: Vec<Point3<f64>>,
     /// Landmark weights: inverse of the mean position variance (1/m²).
     pub weights: Vec<f64>,
+    /// Position variance (m²) along one horizontal direction: the mean of the covariance's
+    /// x and y variances.
+    pub var_xy: Vec<f64>,
+    /// Height variance (m²).
+    pub var_z: Vec<f64>,
+    /// Position variance (m²) along any direction: a third of the covariance's trace.
+    pub var_3d: Vec<f64>,
     /// Landmark ids, in the same order.
     pub ids: Vec<u32>,
     /// Landmark sizes (m), when known.
@@ -44,9 +51,15 @@ impl PreparedMap {
                 1.0 / variance
             })
             .collect();
+        let cov = |f: fn(&nalgebra::Matrix3<f64>) -> f64| -> Vec<f64> {
+            map.landmarks.iter().map(|l| f(&l.covariance)).collect()
+        };
         Ok(Self {
             points: map.positions(),
             weights,
+            var_xy: cov(|c| 0.5 * (c[(0, 0)] + c[(1, 1)])),
+            var_z: cov(|c| c[(2, 2)]),
+            var_3d: cov(|c| c.trace() / 3.0),
             ids: map.landmarks.iter().map(|l| l.id).collect(),
             sizes: map.landmarks.iter().map(|l| l.size_m).collect(),
             observations: map.landmarks.iter().map(|l| l.observations).collect(),
@@ -69,6 +82,12 @@ impl PreparedMap {
             order.sort_unstable();
         }
         order
+    }
+
+    /// Whether every landmark has 0 observations: a survey map (a rock grid), whose
+    /// landmarks no detection count ranks.
+    pub fn is_survey(&self) -> bool {
+        self.observations.iter().all(|&o| o == 0)
     }
 
     /// Whether the map has no landmarks (never true once prepared).

@@ -123,6 +123,63 @@ pub struct Hypothesis {
     pub spread_m: f64,
     /// Motion model `auto` only: the tilt-aware alignment's last decision.
     pub tilt: Option<TiltDiagnostics>,
+    /// The residual gate (m) for this hypothesis: the configured floor, or the RMS residual
+    /// its inliers' covariances predict times the multiplier, whichever is larger.
+    pub max_rmse_m: f64,
+}
+
+/// The tolerances a relocalization used (they follow the landmarks' covariances).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Tolerances {
+    /// Whether any association pair's tolerance exceeded the configured `epsilon_m` or
+    /// `epsilon_z_m` (false: every pair used them).
+    pub widened: bool,
+    /// Largest horizontal (4-DOF) or distance (6-DOF) tolerance of any pair (m).
+    pub epsilon_max_m: f64,
+    /// Largest height tolerance of any pair (m; 4-DOF).
+    pub epsilon_z_max_m: f64,
+    /// The tolerance of a pair of two median associations (m).
+    pub epsilon_median_m: f64,
+    /// Factor applied to the refinement's gate, inlier threshold and kernel scale, to the
+    /// same-hypothesis distance and to the fewest inliers: the median tolerance over
+    /// `epsilon_m` (1 unless most pairs were widened).
+    pub refine_scale: f64,
+}
+
+impl Tolerances {
+    /// From the graph build's summary.
+    pub fn from_summary(
+        summary: &segloc_clipper::ToleranceSummary,
+        config: &super::ConsistencyConfig,
+    ) -> Self {
+        Self {
+            widened: summary.widened,
+            epsilon_max_m: summary.epsilon_max,
+            epsilon_z_max_m: summary.epsilon_z_max,
+            epsilon_median_m: summary.epsilon_median,
+            refine_scale: (summary.epsilon_median / config.epsilon_m).max(1.0),
+        }
+    }
+
+    /// The configuration with the refinement's distances scaled by `refine_scale`, or
+    /// `None` when the scale is 1 (the configuration is used as it is).
+    pub fn scaled(&self, config: &super::RelocalizeConfig) -> Option<super::RelocalizeConfig> {
+        let s = self.refine_scale;
+        if s <= 1.0 {
+            return None;
+        }
+        let mut out = config.clone();
+        out.refine.gate_m *= s;
+        out.refine.inlier_threshold_m *= s;
+        out.refine.cauchy_scale_m *= s;
+        out.verification.same_hypothesis_m *= s;
+        // a wider inlier gate lets more landmarks fall in it by chance (measured on mirrored
+        // traverses against the 0.15 m grid: 5 of 340 accepted with 6 inliers); linear in the
+        // scale refused most traverses at 0.45 m (28 inliers needed), so its square root
+        out.verification.min_inliers =
+            (config.verification.min_inliers as f64 * s.sqrt()).ceil() as usize;
+        Some(out)
+    }
 }
 
 /// What the tilt-aware alignment (motion model `auto`) decided for a hypothesis.
@@ -182,6 +239,8 @@ pub struct Diagnostics {
     pub dof: u32,
     /// Whether the alignment was tilt-aware (motion model `auto`).
     pub tilt_aware: bool,
+    /// The consistency tolerances used.
+    pub tolerances: Tolerances,
     /// Hypotheses examined, best first.
     pub hypotheses: Vec<Hypothesis>,
     /// Stage timings.

@@ -28,10 +28,10 @@ pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Res
             required: config.min_inliers,
         });
     }
-    if best.rmse_m > config.max_rmse_m {
+    if best.rmse_m > best.max_rmse_m {
         return Err(Refusal::ResidualTooLarge {
             rmse_m: best.rmse_m,
-            max_rmse_m: config.max_rmse_m,
+            max_rmse_m: best.max_rmse_m,
         });
     }
     if best.spread_m < config.min_spread_m {
@@ -86,6 +86,7 @@ mod tests {
             rmse_m: rmse,
             spread_m: spread,
             tilt: None,
+            max_rmse_m: 0.03,
         }
     }
 

@@ -1,0 +1,48 @@
+//! Global localization against the real LAC ground-truth rock grid: three LunarLoc
+//! traverses, each under random rigid transforms, and their mirror images.
+
+mod common;
+
+use segloc::eval::grid::{evaluate_grid, GridEvalOptions};
+use segloc::relocalize::RelocalizeConfig;
+
+#[test]
+fn three_traverses_placed_against_the_grid_and_mirrors_refused() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let options = GridEvalOptions {
+        traverses: vec![3, 7, 12],
+        cell_size_m: 0.15,
+        trials: 2,
+        submaps: false,
+        submap_s: 60.0,
+        negatives: true,
+        seed: 5,
+        extra_rocks: 0,
+    };
+    let report = evaluate_grid(&data, &options, &RelocalizeConfig::default(), |_, _| {}).unwrap();
+    assert_eq!(report.prior_landmarks, 578);
+    let t = &report.traverses;
+    assert_eq!(t.queries, 6);
+    assert_eq!(t.within_5cm, 6, "{t:?}");
+    assert_eq!(report.negatives.accepted, 0, "{:?}", report.negatives);
+    // the tolerances followed the grid's covariances
+    let q = &report.queries[0];
+    assert!(q.epsilon_max_m > 0.1, "{q:?}");
+}
+
+#[test]
+fn coarser_grids_load_and_bad_cell_sizes_are_refused() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    for (cell, factor) in [(0.3, 2.0f64), (0.45, 3.0)] {
+        let map = segloc::eval::grid::grid_prior(&data, cell, 0, 1).unwrap();
+        let cov = map.landmarks[0].covariance;
+        assert!((cov[(0, 0)] - (0.15 * factor).powi(2) / 12.0).abs() < 1e-12);
+    }
+    assert!(segloc::eval::grid::grid_prior(&data, 0.2, 0, 1).is_err());
+    let big = segloc::eval::grid::grid_prior(&data, 0.15, 1422, 1).unwrap();
+    assert_eq!(big.len(), 2000);
+}
