@@ -26,6 +26,7 @@ sections=(
   "association|scripts/bench_association.sh $(q --quick)"
   "relocalization|scripts/bench_relocalization.sh"
   "tilt|scripts/bench_tilt.sh $(q --no-mission)"
+  "grid|env TRIALS=$(q 2 20) scripts/bench_grid.sh"
   "localizer|scripts/bench_localizer.sh $(q --quick)"
   "stream|scripts/bench_stream.sh $(q --quick)"
   "posegraph|scripts/bench_posegraph.sh --runs $(q 3 11)"

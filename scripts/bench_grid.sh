@@ -1,19 +1,19 @@
 #!/usr/bin/env bash
 # Global localization against the LAC ground-truth rock grid (issue 29): every LunarLoc
 # traverse, its 60 s submaps and its mirror image against the grid's rocks at 0.15, 0.3
-# and 0.45 m cells, and the time of a 2,000-rock prior. Prints a short markdown section
-# (copy it to the benchmarks); the JSON stays in target/bench/grid.
+# and 0.45 m cells, and the time of a 2,000-rock prior. Writes the section "grid" of
+# BENCHMARKS.md (--print: prints it instead); the JSON stays in target/bench/grid.
 #
-#   scripts/bench_grid.sh        (from anywhere; SEGLOC_DATA, default ../shared/data;
-#                                 TRIALS transforms per traverse, default 20)
+#   scripts/bench_grid.sh [--print]   (from anywhere; SEGLOC_DATA, default ../shared/data;
+#                                      TRIALS transforms per traverse, default 20)
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
 data="${SEGLOC_DATA:-../shared/data}"
 [ -d "$data/lunarloc" ] || { echo "bench_grid: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
 target="${CARGO_TARGET_DIR:-target}"
-nice -n 10 cargo build --release --quiet --bin segloc
-bin="$target/release/segloc"
+bin="${SEGLOC_BIN:-$target/release/segloc}"
+[ -n "${SEGLOC_BIN:-}" ] || nice -n 10 cargo build --release --quiet --bin segloc
 out="$target/bench/grid"
 mkdir -p "$out"
 export RAYON_NUM_THREADS=1
@@ -25,7 +25,7 @@ done
 echo "[bench_grid] 2,000-rock prior" >&2
 nice -n 10 "$bin" eval grid --data "$data" --cell-size 0.15 --trials 1 --extra-rocks 1422 --json > "$out/grid_2000.json"
 
-python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(git rev-parse --short HEAD)" "$trials" <<'PY'
+section=$(python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(git rev-parse --short HEAD)" "$trials" <<'PY'
 import json, sys
 out, date, commit, trials = sys.argv[1:5]
 R = {c: json.load(open(f"{out}/grid_{c}.json")) for c in ("0.15", "0.3", "0.45")}
@@ -56,3 +56,5 @@ w(f"2,000-rock prior (the 0.15 m grid's {R['0.15']['prior_landmarks']} rocks plu
 w("Traverses: error at the world origin (the lander), as `eval lunarloc`; submaps: at the rover's own positions. "
   "Wrong = accepted and off by more than max(10 cm, a third of a cell) or 1°, or any accepted negative.")
 PY
+)
+if [[ "${1:-}" == "--print" ]]; then echo "$section"; else echo "$section" | python3 scripts/bench_section.py grid; fi
