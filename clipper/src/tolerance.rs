@@ -58,7 +58,7 @@ impl ConsistencyGraph {
     /// Pairs of two *tight* associations (each of whose variances, doubled, stays within
     /// the floor) are decided by the plain build. When only a few associations are loose,
     /// their pairs are found from each loose association's sorted distances
-    /// ([`crate::loose_partners`]); when most are (a grid map), the graph is built with the
+    /// (`loose_partners`); when most are (a grid map), the graph is built with the
     /// widest thresholds and every edge re-tested with its own.
     pub fn build_with_variances(
         prior: &[Point3<f64>],
