@@ -21,17 +21,10 @@ import os
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 
-BEGIN = "<!-- association:begin -->"
-END = "<!-- association:end -->"
-PREAMBLE = (
-    "# segloc benchmarks\n\n"
-    "Measured numbers, each section written by its own script (the command is quoted in the\n"
-    "section). Rerun the script to refresh a section; sections are delimited by HTML comment\n"
-    "markers and each script only rewrites its own.\n"
-)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_section import write_section  # noqa: E402
 
 # name, generator arguments, title, targets: (metric, op, bound)
 KINDS = [
@@ -446,31 +439,9 @@ def cmd_report(a):
                  "CLIPPER and CLIPPER+ figures (705 and 267 ms on 5,000 associations, 1.5–3.4 s a "
                  "paper pair) are in `../shared/docs/association.md`.")
     block = "\n".join(L).rstrip() + "\n"
-    write_block(a.markdown, block)
+    write_section(a.markdown, "association", block)
     log(f"wrote the association section of {a.markdown}")
     return 0
-
-
-def write_block(path, block):
-    """Replace the text between BEGIN and END in `path` (create the file or append the markers
-    if absent); the rest of the file is left byte for byte."""
-    new = f"{BEGIN}\n{block}{END}"
-    if os.path.exists(path):
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-    else:
-        text = PREAMBLE
-    b, e = text.find(BEGIN), text.find(END)
-    if b >= 0 and e > b:
-        text = text[:b] + new + text[e + len(END):]
-    elif b >= 0 or e >= 0:
-        raise SystemExit(f"{path}: the markers {BEGIN} / {END} are unbalanced; fix them by hand")
-    else:
-        text = text.rstrip("\n") + "\n\n" + new + "\n"
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".bench-")
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def main():

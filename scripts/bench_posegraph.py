@@ -21,6 +21,9 @@ import time
 import numpy as np
 import gtsam
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_section import write_section  # noqa: E402
+
 SECTION = "## Pose graph (issue 3)"
 
 # Public 3D pose graphs shipped in the gtsam wheel's Data/ that both solvers read the same way.
@@ -611,21 +614,8 @@ def main():
     print(text)
     if args.no_write:
         return
-    try:
-        old = open(args.benchmarks).read()
-    except FileNotFoundError:
-        old = "# Benchmarks\n\n"
-    # Only the block between this section's own markers is replaced.
-    begin, end_marker = "<!-- posegraph:begin -->", "<!-- posegraph:end -->"
-    block = f"{begin}\n{text.rstrip()}\n{end_marker}"
-    start, end = old.find(begin), old.find(end_marker)
-    if start < 0 or end < start:
-        new = old.rstrip("\n") + "\n\n" + block + "\n"
-    else:
-        new = old[:start] + block + old[end + len(end_marker):]
-    with open(args.benchmarks + ".tmp", "w") as f:
-        f.write(new.rstrip("\n") + "\n")
-    os.replace(args.benchmarks + ".tmp", args.benchmarks)
+    # only the block between this section's own markers is replaced
+    write_section(args.benchmarks, "posegraph", text)
 
 
 if __name__ == "__main__":

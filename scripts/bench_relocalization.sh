@@ -29,7 +29,7 @@ SEGLOC_DATA="$data" target/release/examples/submap_negatives 600 > "$out/submaps
 SEGLOC_DATA="$data" target/release/examples/submap_negatives 600 positives > "$out/submaps_positive.txt"
 
 python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" <<'PY'
-import json, re, sys
+import json, sys
 out, date, machine, commit = sys.argv[1:5]
 L = json.load(open(f"{out}/landmarks.json"))
 p4 = json.load(open(f"{out}/paper4.json")); p6 = json.load(open(f"{out}/paper6.json")); a4 = json.load(open(f"{out}/all4.json"))
@@ -138,17 +138,8 @@ w("Raw detections are dominated by the large, well-seen boulders (dozens of dete
   "and 5 mm (2 m range) to 3 cm (6 m) along it; between traverses the same boulder's landmark moves by 1–5 cm (viewpoint), "
   "which the Cauchy-weighted refinement absorbs.")
 text = "\n".join(lines)
-path = "BENCHMARKS.md"
-try:
-    doc = open(path).read()
-except FileNotFoundError:
-    doc = "# segloc benchmarks\n"
-begin, end = "<!-- relocalization:begin -->", "<!-- relocalization:end -->"
-block = f"{begin}\n{text}\n{end}"
-if begin in doc and end in doc:
-    doc = re.sub(re.escape(begin) + r".*?" + re.escape(end), lambda m: block, doc, flags=re.S)
-else:
-    doc = doc.rstrip("\n") + "\n\n" + block + "\n"
-open(path, "w").write(doc)
+sys.path.insert(0, "scripts")
+from bench_section import write_section
+write_section("BENCHMARKS.md", "relocalization", text)
 print("wrote the relocalization section of BENCHMARKS.md", file=sys.stderr)
 PY

@@ -7,8 +7,9 @@ Every bench script in scripts/ prints its section and pipes it here (unless give
     some_bench | python3 scripts/bench_section.py NAME [--file BENCHMARKS.md]
 
 The section is the text between the lines `<!-- NAME:begin -->` and `<!-- NAME:end -->`;
-nothing else in the file is touched. The file is written to a temporary file and renamed, so
-an interrupted run never leaves it half-written. A missing marker is an error (exit 2).
+nothing else in the file is touched (a section without markers yet is appended). The file is
+written to a temporary file and renamed, so an interrupted run never leaves it half-written.
+Unbalanced markers are an error (exit 2). Python bench scripts import `write_section`.
 """
 import argparse
 import os
@@ -16,17 +17,38 @@ import sys
 import tempfile
 
 
+class SectionError(Exception):
+    """The file's markers for a section are unbalanced."""
+
+
 def replace_section(text: str, name: str, body: str) -> str:
-    """`text` with the lines between NAME's markers replaced by `body`."""
+    """`text` with the lines between NAME's markers replaced by `body`; with neither marker
+    in `text`, the section (markers included) is appended at the end."""
     begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
     lines = text.split("\n")
-    try:
-        i = next(k for k, line in enumerate(lines) if line.strip() == begin)
-        j = next(k for k, line in enumerate(lines) if line.strip() == end and k > i)
-    except StopIteration:
-        raise SystemExit(f"bench_section: no `{begin}` … `{end}` pair in the file") from None
     new = body.strip("\n").split("\n")
+    i = next((k for k, line in enumerate(lines) if line.strip() == begin), None)
+    j = next((k for k, line in enumerate(lines) if line.strip() == end and (i is None or k > i)), None)
+    if i is None and j is None:
+        return text.rstrip("\n") + "\n\n" + "\n".join([begin, *new, end]) + "\n"
+    if i is None or j is None:
+        raise SectionError(f"the markers `{begin}` / `{end}` are unbalanced; fix them by hand")
     return "\n".join(lines[: i + 1] + new + lines[j:])
+
+
+def write_section(path: str, name: str, body: str) -> None:
+    """Replace (or append) section NAME of the markdown file `path` with `body`, through a
+    temporary file and a rename; a missing file starts as an empty benchmarks page."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    except FileNotFoundError:
+        text = "# segloc benchmarks\n"
+    new = replace_section(text, name, body)
+    directory = os.path.dirname(os.path.abspath(path))
+    with tempfile.NamedTemporaryFile("w", encoding="utf-8", dir=directory, delete=False) as tmp:
+        tmp.write(new)
+    os.replace(tmp.name, path)
 
 
 def main() -> None:
@@ -38,19 +60,12 @@ def main() -> None:
     if not body.strip():
         sys.exit(f"bench_section: empty section for `{args.name}` on stdin; {args.file} left as it was")
     try:
-        with open(args.file, encoding="utf-8") as f:
-            text = f.read()
-    except OSError as e:
-        sys.exit(f"bench_section: cannot read {args.file}: {e}")
-    try:
-        new = replace_section(text, args.name, body)
-    except SystemExit as e:
+        write_section(args.file, args.name, body)
+    except SectionError as e:
         print(f"{args.file}: {e}", file=sys.stderr)
         sys.exit(2)
-    directory = os.path.dirname(os.path.abspath(args.file))
-    with tempfile.NamedTemporaryFile("w", encoding="utf-8", dir=directory, delete=False) as tmp:
-        tmp.write(new)
-    os.replace(tmp.name, args.file)
+    except OSError as e:
+        sys.exit(f"bench_section: cannot write {args.file}: {e}")
     print(f"wrote the {args.name} section of {args.file}", file=sys.stderr)
 
 

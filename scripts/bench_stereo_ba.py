@@ -24,6 +24,9 @@ import time
 import numpy as np
 import gtsam
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_section import write_section  # noqa: E402
+
 SECTION = "## Stereo bundle adjustment vs GTSAM (issue 27)"
 FILES = ("VO_calibration.txt", "VO_camera_poses_large.txt", "VO_stereo_factors_large.txt")
 
@@ -97,18 +100,6 @@ def machine():
     return platform.processor() or "unknown"
 
 
-def write_section(path, text):
-    begin, end = "<!-- stereo-ba:begin -->", "<!-- stereo-ba:end -->"
-    old = open(path).read() if os.path.exists(path) else "# segloc benchmarks\n"
-    block = f"{begin}\n{text.rstrip()}\n{end}"
-    start, stop = old.find(begin), old.find(end)
-    new = (old.rstrip("\n") + "\n\n" + block + "\n") if start < 0 or stop < start \
-        else old[:start] + block + old[stop + len(end):]
-    with open(path + ".tmp", "w") as f:
-        f.write(new.rstrip("\n") + "\n")
-    os.replace(path + ".tmp", path)
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--segloc", required=True)
@@ -158,7 +149,7 @@ def main():
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:
-        write_section(args.benchmarks, text)
+        write_section(args.benchmarks, "stereo-ba", text)
 
 
 if __name__ == "__main__":

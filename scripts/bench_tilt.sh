@@ -44,7 +44,7 @@ if [[ "${1:-}" != "--no-mission" ]]; then
 fi
 
 python3 - "$out" "$(date -u '+%Y-%m-%d')" "$(git rev-parse --short HEAD)" <<'PY'
-import json, os, re, sys
+import json, os, sys
 out, date, commit = sys.argv[1:4]
 def load(name): return json.load(open(f"{out}/{name}"))
 def paper(dof, tilt):
@@ -90,14 +90,8 @@ w.append("The localizer keeps `gravity_aligned_dof = \"4\"`: why `auto` does not
          "[design note](docs/design/tilt-aware-alignment.md).")
 text = "\n".join(w)
 print(text)
-path = "BENCHMARKS.md"
-doc = open(path).read()
-begin, end = "<!-- tilt:begin -->", "<!-- tilt:end -->"
-block = f"{begin}\n{text}\n{end}"
-if begin in doc and end in doc:
-    doc = re.sub(re.escape(begin) + r".*?" + re.escape(end), lambda m: block, doc, flags=re.S)
-else:
-    doc = doc.rstrip("\n") + "\n\n" + block + "\n"
-open(path, "w").write(doc)
+sys.path.insert(0, "scripts")
+from bench_section import write_section
+write_section("BENCHMARKS.md", "tilt", text)
 print("wrote the tilt section of BENCHMARKS.md", file=sys.stderr)
 PY

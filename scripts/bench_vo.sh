@@ -50,12 +50,7 @@ lines = [
 text = "\n".join(lines) + "\n"
 print(text)
 if os.environ["WRITE"] == "1":
-    path = os.environ["BENCH"]
-    begin, end = "<!-- vo:begin -->", "<!-- vo:end -->"
-    old = open(path).read()
-    block = f"{begin}\n{text.rstrip()}\n{end}"
-    a, b = old.find(begin), old.find(end)
-    new = old.rstrip("\n") + "\n\n" + block + "\n" if a < 0 or b < a else old[:a] + block + old[b + len(end):]
-    open(path + ".tmp", "w").write(new.rstrip("\n") + "\n")
-    os.replace(path + ".tmp", path)
+    sys.path.insert(0, os.path.join(os.path.dirname(os.environ["BENCH"]), "scripts"))
+    from bench_section import write_section
+    write_section(os.environ["BENCH"], "vo", text)
 '
