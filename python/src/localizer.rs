@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 use segloc::localizer::{LocalizerConfig, LocalizerEvent};
 use segloc_maps::StreamFrame;
 use std::path::PathBuf;
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
 /// One camera frame of a drive: time, odometry pose, gravity, boulder detections in the
 /// rover frame (read with `read_frames`).
@@ -75,6 +75,20 @@ pub struct Localizer {
     inner: Mutex<Option<segloc::localizer::Localizer>>,
 }
 
+impl Localizer {
+    /// The localizer under its lock (`None` once finished).
+    fn lock(&self) -> PyResult<MutexGuard<'_, Option<segloc::localizer::Localizer>>> {
+        self.inner
+            .lock()
+            .map_err(|_| to_py("the localizer panicked"))
+    }
+}
+
+/// The error of a call after `finish`.
+fn finished() -> PyErr {
+    to_py("the localizer has finished")
+}
+
 #[pymethods]
 impl Localizer {
     #[new]
@@ -97,13 +111,8 @@ impl Localizer {
     /// Raises `SegLocError` on a bad frame (time not increasing, ...) or after `finish`.
     fn push_frame(&self, py: Python<'_>, frame: &Frame) -> PyResult<FrameResult> {
         py.detach(|| {
-            let mut guard = self
-                .inner
-                .lock()
-                .map_err(|_| to_py("the localizer panicked"))?;
-            let localizer = guard
-                .as_mut()
-                .ok_or_else(|| to_py("the localizer has finished"))?;
+            let mut guard = self.lock()?;
+            let localizer = guard.as_mut().ok_or_else(finished)?;
             localizer.push_frame(&frame.inner).map_err(to_py)
         })
         .map(|out| FrameResult {
@@ -125,13 +134,7 @@ impl Localizer {
     /// `SessionResult`; the localizer takes no frame after it.
     fn finish(&self, py: Python<'_>) -> PyResult<SessionResult> {
         py.detach(|| {
-            let mut guard = self
-                .inner
-                .lock()
-                .map_err(|_| to_py("the localizer panicked"))?;
-            let localizer = guard
-                .take()
-                .ok_or_else(|| to_py("the localizer has finished"))?;
+            let localizer = self.lock()?.take().ok_or_else(finished)?;
             localizer.finish().map_err(to_py)
         })
         .map(|inner| SessionResult { inner })

@@ -229,7 +229,8 @@ pub fn accepted_answer(
         }
         Err(refusal) => {
             record.inliers = 0;
-            record.yaw_sigma_deg = Some(yaw_sigma_deg(&Matrix6::zeros()));
+            // a refusal carries no information: its yaw is unknown
+            record.yaw_sigma_deg = Some(f64::INFINITY);
             record.status = AttemptStatus::Refused(AttemptRefusal::Relocalizer(refusal));
             None
         }
