@@ -77,10 +77,16 @@ impl ConsistencyGraph {
             return Ok((graph, summary));
         }
         if loose_count * 4 <= associations.len() {
-            if let Some(edges) =
-                crate::loose_partners::edges(prior, query, associations, invariant, &pair, &loose)?
-            {
-                return Ok((Self::from_edge_list(associations.len(), &edges), summary));
+            if let Some(graph) = crate::loose_partners::graph(
+                prior,
+                query,
+                associations,
+                invariant,
+                &pair,
+                variances,
+                &loose,
+            )? {
+                return Ok((graph, summary));
             }
         }
         let wide = widened(invariant, pair.epsilon_max, pair.epsilon_z_max);
@@ -211,11 +217,61 @@ impl PairThresholds {
             || (self.test.gravity && 2.0 * k2 * self.var_z[u] > self.test.epsilon_z.powi(2))
     }
 
+    /// The residual variance of association `u` (prior point + query point).
+    pub fn var(&self, u: usize) -> f64 {
+        self.var[u]
+    }
+
+    /// Whether the pair `(u, v)`'s thresholds stay at the floor (the plain build decides
+    /// it and weighs it).
+    pub fn at_floor(&self, u: usize, v: usize) -> bool {
+        let (t, k2) = (&self.test, self.multiplier * self.multiplier);
+        k2 * (self.var[u] + self.var[v]) <= t.epsilon * t.epsilon
+            && (!t.gravity || k2 * (self.var_z[u] + self.var_z[v]) <= t.epsilon_z * t.epsilon_z)
+    }
+
+    /// A point's variance over the floor's budget `(ε / multiplier)²`, the larger of the
+    /// horizontal (or 3D) and the height one.
+    pub fn looseness(&self, var: f64, var_z: Option<f64>) -> f64 {
+        let (t, k2) = (&self.test, self.multiplier * self.multiplier);
+        let xy = k2 * var / (t.epsilon * t.epsilon);
+        match var_z {
+            Some(z) if t.gravity => xy.max(k2 * z / (t.epsilon_z * t.epsilon_z)),
+            _ => xy,
+        }
+    }
+
+    /// The looseness a query point must exceed to widen a pair of association `u` with an
+    /// association of a prior point of variances `var_k`, `var_z_k` (negative: any).
+    pub fn looseness_to_widen(&self, u: usize, var_k: f64, var_z_k: Option<f64>) -> f64 {
+        let (t, k2) = (&self.test, self.multiplier * self.multiplier);
+        let xy = 1.0 - k2 * (self.var[u] + var_k) / (t.epsilon * t.epsilon);
+        match var_z_k {
+            Some(z) if t.gravity => {
+                xy.min(1.0 - k2 * (self.var_z[u] + z) / (t.epsilon_z * t.epsilon_z))
+            }
+            _ => xy,
+        }
+    }
+
+    /// The (distance / horizontal distance) threshold of a pair of association `u` with an
+    /// association of residual variance `var_v`.
+    pub fn threshold(&self, u: usize, var_v: f64) -> f64 {
+        let t = &self.test;
+        t.epsilon
+            .max(self.multiplier * (self.var[u] + var_v).sqrt())
+            .min(self.epsilon_max)
+    }
+
     fn summary(&self) -> ToleranceSummary {
         let t = &self.test;
         let mut sorted = self.var.clone();
-        sorted.sort_unstable_by(f64::total_cmp);
-        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+        let half = sorted.len() / 2;
+        let median = if sorted.is_empty() {
+            0.0
+        } else {
+            *sorted.select_nth_unstable_by(half, f64::total_cmp).1
+        };
         let widened =
             self.epsilon_max > t.epsilon || (t.gravity && self.epsilon_z_max > t.epsilon_z);
         ToleranceSummary {
