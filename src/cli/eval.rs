@@ -26,71 +26,10 @@ pub enum EvalCommand {
     /// translation error as a percentage of the distance, rotation error, time per frame.
     Vo(super::vo::EvalVoArgs),
     /// Relocalize pairs of LunarLoc traverses under random rigid transforms.
-    Lunarloc {
-        /// The data folder holding `lunarloc/traverse_N.csv`.
-        #[arg(long, default_value = "../shared/data")]
-        data: PathBuf,
-        /// Which pairs: the five of the LunarLoc paper, or all 136.
-        #[arg(long, default_value = "paper", value_parser = ["paper", "all"])]
-        pairs: String,
-        /// Negatives: mirror every query traverse in x, so that no answer is right and
-        /// every acceptance counts as a false accept; the pairs gain each traverse against
-        /// its own mirror image.
-        #[arg(long)]
-        negatives: bool,
-        /// Random transforms per pair.
-        #[arg(long, default_value_t = 20)]
-        trials: usize,
-        /// Seed of the transforms.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Motion model (see `segloc relocalize --dof`).
-        #[arg(long, default_value = "auto", value_parser = ["4", "6", "auto"])]
-        dof: String,
-        /// Tilt every query by a random roll and pitch, each within ± this many degrees,
-        /// which the query map does not declare (it still claims to be gravity-aligned), as
-        /// an IMU's error would: gravity-aligned models only.
-        #[arg(long, default_value_t = 0.0)]
-        tilt_deg: f64,
-        /// Print one JSON object.
-        #[arg(long)]
-        json: bool,
-    },
+    Lunarloc(LunarlocArgs),
     /// Merge random subsets of LunarLoc traverses, each moved by its own random transform,
     /// and compare every placement with the truth.
-    Merge {
-        /// The data folder holding `lunarloc/traverse_N.csv`.
-        #[arg(long, default_value = "../shared/data")]
-        data: PathBuf,
-        /// Agents (traverses) per trial.
-        #[arg(long, default_value_t = 5)]
-        agents: usize,
-        /// Decoy agents per trial: traverses mirrored in x, which share no boulder with any
-        /// other map and must be reported disconnected.
-        #[arg(long, default_value_t = 1)]
-        decoys: usize,
-        /// Trials.
-        #[arg(long, default_value_t = 10)]
-        trials: usize,
-        /// Seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Print one JSON object.
-        #[arg(long)]
-        json: bool,
-        /// Instead: merge all 17 traverses and compare the merged map's rock grid with
-        /// every single traverse's, against the LAC ground truth.
-        #[arg(long)]
-        rock_map: bool,
-        /// Viewpoint-bias correction (m) of the detections when each agent's map is fused
-        /// (the value measured on the LunarLoc traverses by default; 0 = none).
-        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_M)]
-        view_bias_m: f64,
-        /// Boulder-to-boulder spread (m) of the viewpoint bias, modelled in the landmark
-        /// covariances along each landmark's mean line of sight (0 = not modelled).
-        #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
-        view_bias_sigma_m: f64,
-    },
+    Merge(MergeArgs),
     /// Replay LunarLoc traverses frame by frame through the online localizer, each against
     /// another traverse's map, with drifting odometry; score every pose against the truth.
     Stream(StreamArgs),
@@ -98,14 +37,87 @@ pub enum EvalCommand {
     /// ground-truth rock grid, under random rigid transforms, with no prior session.
     Grid(super::eval_grid::GridArgs),
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
-    Landmarks {
-        /// The data folder holding `lunarloc/` and `lac-groundtruth/`.
-        #[arg(long, default_value = "../shared/data")]
-        data: PathBuf,
-        /// Print one JSON object.
-        #[arg(long)]
-        json: bool,
-    },
+    Landmarks(LandmarksArgs),
+}
+
+/// Arguments of `segloc eval lunarloc`.
+#[derive(clap::Args, Debug)]
+pub struct LunarlocArgs {
+    /// The data folder holding `lunarloc/traverse_N.csv`.
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Which pairs: the five of the LunarLoc paper, or all 136.
+    #[arg(long, default_value = "paper", value_parser = ["paper", "all"])]
+    pub pairs: String,
+    /// Negatives: mirror every query traverse in x, so that no answer is right and
+    /// every acceptance counts as a false accept; the pairs gain each traverse against
+    /// its own mirror image.
+    #[arg(long)]
+    pub negatives: bool,
+    /// Random transforms per pair.
+    #[arg(long, default_value_t = 20)]
+    pub trials: usize,
+    /// Seed of the transforms.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Motion model (see `segloc relocalize --dof`).
+    #[arg(long, default_value = "auto", value_parser = ["4", "6", "auto"])]
+    pub dof: String,
+    /// Tilt every query by a random roll and pitch, each within ± this many degrees,
+    /// which the query map does not declare (it still claims to be gravity-aligned), as
+    /// an IMU's error would: gravity-aligned models only.
+    #[arg(long, default_value_t = 0.0)]
+    pub tilt_deg: f64,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `segloc eval merge`.
+#[derive(clap::Args, Debug)]
+pub struct MergeArgs {
+    /// The data folder holding `lunarloc/traverse_N.csv`.
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Agents (traverses) per trial.
+    #[arg(long, default_value_t = 5)]
+    pub agents: usize,
+    /// Decoy agents per trial: traverses mirrored in x, which share no boulder with any
+    /// other map and must be reported disconnected.
+    #[arg(long, default_value_t = 1)]
+    pub decoys: usize,
+    /// Trials.
+    #[arg(long, default_value_t = 10)]
+    pub trials: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Instead: merge all 17 traverses and compare the merged map's rock grid with
+    /// every single traverse's, against the LAC ground truth.
+    #[arg(long)]
+    pub rock_map: bool,
+    /// Viewpoint-bias correction (m) of the detections when each agent's map is fused
+    /// (the value measured on the LunarLoc traverses by default; 0 = none).
+    #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_M)]
+    pub view_bias_m: f64,
+    /// Boulder-to-boulder spread (m) of the viewpoint bias, modelled in the landmark
+    /// covariances along each landmark's mean line of sight (0 = not modelled).
+    #[arg(long, default_value_t = segloc::landmarks::view_bias::LUNARLOC_VIEW_BIAS_SIGMA_M)]
+    pub view_bias_sigma_m: f64,
+}
+
+/// Arguments of `segloc eval landmarks`.
+#[derive(clap::Args, Debug)]
+pub struct LandmarksArgs {
+    /// The data folder holding `lunarloc/` and `lac-groundtruth/`.
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `segloc eval stream`.
@@ -141,171 +153,163 @@ pub struct StreamArgs {
 }
 
 /// Run an evaluation.
-#[allow(clippy::too_many_lines)] // split pending: src/cli/eval.rs is being edited by another engineer
 pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
     match cmd {
         EvalCommand::Vo(args) => super::vo::eval(args),
-        EvalCommand::Lunarloc {
-            data,
-            pairs,
-            negatives,
-            trials,
-            seed,
-            dof,
-            tilt_deg,
-            json,
-        } => {
-            if *trials == 0 {
-                bail!("--trials must be at least 1");
-            }
-            let dof = parse_dof(Some(dof)).unwrap_or(Dof::Auto);
-            if !(tilt_deg.is_finite() && (0.0..=10.0).contains(tilt_deg)) {
-                bail!("--tilt-deg must be within 0..=10, got {tilt_deg}");
-            }
-            if *tilt_deg > 0.0 && !dof.needs_gravity() {
-                bail!("--tilt-deg is for the gravity-aligned models (--dof 4 or auto)");
-            }
-            let mut config = config.clone();
-            config.dof = Some(dof);
-            let mut chosen = if pairs == "all" {
-                all_pairs()
-            } else {
-                PAPER_PAIRS.to_vec()
-            };
-            if *negatives {
-                chosen.extend(self_pairs());
-            }
-            let options = EvalOptions {
-                pairs: chosen,
-                trials: *trials,
-                seed: *seed,
-                dof,
-                negatives: *negatives,
-                tilt_deg: *tilt_deg,
-            };
-            let bar = indicatif::ProgressBar::new(options.pairs.len() as u64);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} pairs {elapsed}")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            let report = evaluate(data, &options, &config, |done, _| {
-                bar.set_position(done as u64)
-            })?;
-            bar.finish_and_clear();
-            if *json {
-                print_json(&report)?;
-            } else {
-                print_table(&report);
-            }
-            Ok(0)
-        }
-        EvalCommand::Merge {
-            data,
-            rock_map: true,
-            seed,
-            json,
-            view_bias_m,
-            view_bias_sigma_m,
-            ..
-        } => {
-            let mut fusion = config.landmarks.clone();
-            fusion.view_bias_m = *view_bias_m;
-            fusion.view_bias_sigma_m = *view_bias_sigma_m;
-            let r = merged_rock_map(data, *seed, &fusion, config)?;
-            if *json {
-                print_json(&r)?;
-            } else {
-                println!(
-                    "merged map of all 17 traverses: rock F1 {:.3} (precision {:.3}, recall {:.3})",
-                    r.merged_f1, r.merged_precision, r.merged_recall
-                );
-                println!(
-                    "best single traverse: {} with F1 {:.3}",
-                    r.best_single.0, r.best_single.1
-                );
-            }
-            Ok(0)
-        }
-        EvalCommand::Merge {
-            data,
-            agents,
-            decoys,
-            trials,
-            seed,
-            json,
-            view_bias_m,
-            view_bias_sigma_m,
-            ..
-        } => {
-            if *agents < 2 || *trials == 0 {
-                bail!("--agents must be at least 2 and --trials at least 1");
-            }
-            let options = MergeEvalOptions {
-                agents: *agents,
-                decoys: *decoys,
-                trials: *trials,
-                seed: *seed,
-                view_bias_m: *view_bias_m,
-                view_bias_sigma_m: *view_bias_sigma_m,
-            };
-            let report = evaluate_merge(data, &options, config, |_, _| {})?;
-            if *json {
-                let mut value = serde_json::to_value(&report)?;
-                value["config"] = json!(config);
-                value["view_bias_m"] = json!(view_bias_m);
-                value["view_bias_sigma_m"] = json!(view_bias_sigma_m);
-                print_json(&value)?;
-            } else {
-                for (k, t) in report.trials.iter().enumerate() {
-                    let line: Vec<String> = t
-                        .agents
-                        .iter()
-                        .map(|a| match (a.decoy, a.merged, a.translation_error_m) {
-                            (true, false, _) => format!("decoy {}: disconnected", a.traverse),
-                            (true, true, _) => format!("decoy {}: PLACED", a.traverse),
-                            (false, true, Some(e)) => {
-                                format!("{}: {:.2} cm", a.traverse, e * 100.0)
-                            }
-                            _ => format!("{}: disconnected", a.traverse),
-                        })
-                        .collect();
-                    println!("trial {k:>2} ({:.0} ms): {}", t.time_ms, line.join(", "));
-                }
-                println!(
-                    "placed {}/{} real agents ({} outside 1 cm / 0.1°); decoys placed {}/{}; translation error mean {:.2} cm, max {:.2} cm; rotation max {:.3}°; merge time median {:.0} ms",
-                    report.placed, report.agents, report.placed_outside_1cm_0p1deg, report.decoys_placed, report.decoys,
-                    report.translation_error_m.mean * 100.0, report.translation_error_m.max * 100.0,
-                    report.rotation_error_deg.max, report.time_ms.median
-                );
-            }
-            Ok(0)
-        }
+        EvalCommand::Lunarloc(args) => run_lunarloc(args, config),
+        EvalCommand::Merge(args) if args.rock_map => run_merged_rock_map(args, config),
+        EvalCommand::Merge(args) => run_merge(args, config),
         EvalCommand::Stream(args) => run_stream(args, config),
         EvalCommand::Grid(args) => super::eval_grid::run(args, config),
-        EvalCommand::Landmarks { data, json } => {
-            let grid = read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
-            let mut rows = Vec::new();
-            for n in 1..=TRAVERSES {
-                let traverse = read_lunarloc_traverse(&traverse_path(data, n))?;
-                let set = traverse.detections();
-                let map = fuse_detections(&set, &config.landmarks);
-                let raw = match_rocks(&set.positions(), &grid);
-                let fused = match_map(&map, &grid);
-                rows.push(json!({"traverse": n, "detections": raw, "landmarks": fused, "landmark_count": map.len()}));
-                if !*json {
-                    println!(
-                        "traverse {n:>2}: {:>5} detections ({:>4.1}% on rock, {:>4.1}% on/beside) -> {:>4} landmarks ({:>4.1}% on rock, {:>4.1}% on/beside)",
-                        raw.points, 100.0 * raw.on_rock, 100.0 * raw.near_rock,
-                        fused.points, 100.0 * fused.on_rock, 100.0 * fused.near_rock
-                    );
-                }
-            }
-            if *json {
-                print_json(&json!({"traverses": rows, "config": config.landmarks}))?;
-            }
-            Ok(0)
+        EvalCommand::Landmarks(args) => run_landmarks(args, config),
+    }
+}
+
+/// `segloc eval lunarloc`.
+fn run_lunarloc(args: &LunarlocArgs, config: &RelocalizeConfig) -> Result<i32> {
+    let LunarlocArgs {
+        data,
+        pairs,
+        negatives,
+        trials,
+        seed,
+        dof,
+        tilt_deg,
+        json,
+    } = args;
+    if *trials == 0 {
+        bail!("--trials must be at least 1");
+    }
+    let dof = parse_dof(Some(dof)).unwrap_or(Dof::Auto);
+    if !(tilt_deg.is_finite() && (0.0..=10.0).contains(tilt_deg)) {
+        bail!("--tilt-deg must be within 0..=10, got {tilt_deg}");
+    }
+    if *tilt_deg > 0.0 && !dof.needs_gravity() {
+        bail!("--tilt-deg is for the gravity-aligned models (--dof 4 or auto)");
+    }
+    let mut config = config.clone();
+    config.dof = Some(dof);
+    let mut chosen = if pairs == "all" {
+        all_pairs()
+    } else {
+        PAPER_PAIRS.to_vec()
+    };
+    if *negatives {
+        chosen.extend(self_pairs());
+    }
+    let options = EvalOptions {
+        pairs: chosen,
+        trials: *trials,
+        seed: *seed,
+        dof,
+        negatives: *negatives,
+        tilt_deg: *tilt_deg,
+    };
+    let bar = indicatif::ProgressBar::new(options.pairs.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} pairs {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let report = evaluate(data, &options, &config, |done, _| {
+        bar.set_position(done as u64)
+    })?;
+    bar.finish_and_clear();
+    if *json {
+        print_json(&report)?;
+    } else {
+        print_table(&report);
+    }
+    Ok(0)
+}
+
+/// `segloc eval merge --rock-map`.
+fn run_merged_rock_map(args: &MergeArgs, config: &RelocalizeConfig) -> Result<i32> {
+    let mut fusion = config.landmarks.clone();
+    fusion.view_bias_m = args.view_bias_m;
+    fusion.view_bias_sigma_m = args.view_bias_sigma_m;
+    let r = merged_rock_map(&args.data, args.seed, &fusion, config)?;
+    if args.json {
+        print_json(&r)?;
+    } else {
+        println!(
+            "merged map of all 17 traverses: rock F1 {:.3} (precision {:.3}, recall {:.3})",
+            r.merged_f1, r.merged_precision, r.merged_recall
+        );
+        println!(
+            "best single traverse: {} with F1 {:.3}",
+            r.best_single.0, r.best_single.1
+        );
+    }
+    Ok(0)
+}
+
+/// `segloc eval merge`.
+fn run_merge(args: &MergeArgs, config: &RelocalizeConfig) -> Result<i32> {
+    if args.agents < 2 || args.trials == 0 {
+        bail!("--agents must be at least 2 and --trials at least 1");
+    }
+    let options = MergeEvalOptions {
+        agents: args.agents,
+        decoys: args.decoys,
+        trials: args.trials,
+        seed: args.seed,
+        view_bias_m: args.view_bias_m,
+        view_bias_sigma_m: args.view_bias_sigma_m,
+    };
+    let report = evaluate_merge(&args.data, &options, config, |_, _| {})?;
+    if args.json {
+        let mut value = serde_json::to_value(&report)?;
+        value["config"] = json!(config);
+        value["view_bias_m"] = json!(args.view_bias_m);
+        value["view_bias_sigma_m"] = json!(args.view_bias_sigma_m);
+        return print_json(&value).map(|()| 0);
+    }
+    for (k, t) in report.trials.iter().enumerate() {
+        let line: Vec<String> = t
+            .agents
+            .iter()
+            .map(|a| match (a.decoy, a.merged, a.translation_error_m) {
+                (true, false, _) => format!("decoy {}: disconnected", a.traverse),
+                (true, true, _) => format!("decoy {}: PLACED", a.traverse),
+                (false, true, Some(e)) => format!("{}: {:.2} cm", a.traverse, e * 100.0),
+                _ => format!("{}: disconnected", a.traverse),
+            })
+            .collect();
+        println!("trial {k:>2} ({:.0} ms): {}", t.time_ms, line.join(", "));
+    }
+    println!(
+        "placed {}/{} real agents ({} outside 1 cm / 0.1°); decoys placed {}/{}; translation error mean {:.2} cm, max {:.2} cm; rotation max {:.3}°; merge time median {:.0} ms",
+        report.placed, report.agents, report.placed_outside_1cm_0p1deg, report.decoys_placed, report.decoys,
+        report.translation_error_m.mean * 100.0, report.translation_error_m.max * 100.0,
+        report.rotation_error_deg.max, report.time_ms.median
+    );
+    Ok(0)
+}
+
+/// `segloc eval landmarks`.
+fn run_landmarks(args: &LandmarksArgs, config: &RelocalizeConfig) -> Result<i32> {
+    let data = &args.data;
+    let grid = read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
+    let mut rows = Vec::new();
+    for n in 1..=TRAVERSES {
+        let traverse = read_lunarloc_traverse(&traverse_path(data, n))?;
+        let set = traverse.detections();
+        let map = fuse_detections(&set, &config.landmarks);
+        let raw = match_rocks(&set.positions(), &grid);
+        let fused = match_map(&map, &grid);
+        rows.push(json!({"traverse": n, "detections": raw, "landmarks": fused, "landmark_count": map.len()}));
+        if !args.json {
+            println!(
+                "traverse {n:>2}: {:>5} detections ({:>4.1}% on rock, {:>4.1}% on/beside) -> {:>4} landmarks ({:>4.1}% on rock, {:>4.1}% on/beside)",
+                raw.points, 100.0 * raw.on_rock, 100.0 * raw.near_rock,
+                fused.points, 100.0 * fused.on_rock, 100.0 * fused.near_rock
+            );
         }
     }
+    if args.json {
+        print_json(&json!({"traverses": rows, "config": config.landmarks}))?;
+    }
+    Ok(0)
 }
 
 fn print_table(report: &EvalReport) {

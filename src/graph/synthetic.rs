@@ -86,11 +86,58 @@ fn noisy(z: &Isometry3<f64>, rng: &mut ChaCha8Rng, sr: f64, st: f64) -> Isometry
     z * se3::exp(&xi)
 }
 
-/// Generates a synthetic pose graph.
-#[allow(clippy::too_many_lines)] // split pending: src/graph is being reworked
+/// Generates a synthetic pose graph: a rover's wander over rolling ground, its noisy
+/// odometry, loop closures between revisits, and the odometry's chained poses as the
+/// initial guess.
 pub fn generate(config: &SyntheticConfig) -> SyntheticGraph {
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
     let n = config.poses.max(1);
+    let truth = true_trajectory(config, n, &mut rng);
+    let information = information(config);
+    let (sr, st) = (config.rotation_sigma_rad, config.translation_sigma_m);
+    let mut edges = Vec::with_capacity(n + config.loop_closures);
+    let mut edge = |i: usize, j: usize, rng: &mut ChaCha8Rng| {
+        edges.push(FileEdge {
+            from: i as u64,
+            to: j as u64,
+            measured: noisy(&truth[i].inv_mul(&truth[j]), rng, sr, st),
+            information,
+            line: 0,
+        });
+    };
+    for i in 1..n {
+        edge(i - 1, i, &mut rng);
+    }
+    let candidates = revisits(&truth);
+    let wanted = config.loop_closures.min(candidates.len());
+    for k in 0..wanted {
+        // Evenly spread over the candidates, with a random jitter inside each stride.
+        let stride = candidates.len() as f64 / wanted as f64;
+        let pick = ((k as f64 + rng.random::<f64>()) * stride) as usize;
+        let (i, j) = candidates[pick.min(candidates.len() - 1)];
+        edge(i, j, &mut rng);
+    }
+    let vertices = chained_odometry(&truth[0], &edges[..n - 1]);
+    SyntheticGraph {
+        truth,
+        file: GraphFile {
+            format: FileFormat::G2o,
+            vertices,
+            edges,
+            fixed: vec![0],
+            warnings: Vec::new(),
+            repaired: Vec::new(),
+        },
+    }
+}
+
+/// The rover's true poses: a random-heading walk over rolling ground, turned back towards
+/// the centre when it leaves the square.
+fn true_trajectory(
+    config: &SyntheticConfig,
+    n: usize,
+    rng: &mut ChaCha8Rng,
+) -> Vec<Isometry3<f64>> {
     let ground = |x: f64, y: f64| 0.8 * (x / 9.0).sin() * (y / 7.0).cos();
     let mut truth = Vec::with_capacity(n);
     let (mut x, mut y, mut heading) = (0.0f64, 0.0f64, 0.0f64);
@@ -101,7 +148,7 @@ pub fn generate(config: &SyntheticConfig) -> SyntheticGraph {
             Translation3::new(x, y, z),
             se3::rotation_from_rpy(0.0, pitch, heading),
         ));
-        heading += 0.25 * gaussian(&mut rng);
+        heading += 0.25 * gaussian(rng);
         if x.abs() > config.half_width_m || y.abs() > config.half_width_m {
             // Turn back towards the centre.
             let to_centre = (-y).atan2(-x);
@@ -112,27 +159,22 @@ pub fn generate(config: &SyntheticConfig) -> SyntheticGraph {
         x += config.step_m * heading.cos();
         y += config.step_m * heading.sin();
     }
-    let information = {
-        let mut m = Matrix6::zeros();
-        for k in 0..3 {
-            m[(k, k)] = 1.0 / config.rotation_sigma_rad.powi(2);
-            m[(k + 3, k + 3)] = 1.0 / config.translation_sigma_m.powi(2);
-        }
-        m
-    };
-    let (sr, st) = (config.rotation_sigma_rad, config.translation_sigma_m);
-    let mut edges = Vec::with_capacity(n + config.loop_closures);
-    for i in 1..n {
-        let z = truth[i - 1].inv_mul(&truth[i]);
-        edges.push(FileEdge {
-            from: i as u64 - 1,
-            to: i as u64,
-            measured: noisy(&z, &mut rng, sr, st),
-            information,
-            line: 0,
-        });
+    truth
+}
+
+/// Every edge's information matrix: the configured rotation and translation sigmas.
+fn information(config: &SyntheticConfig) -> Matrix6<f64> {
+    let mut m = Matrix6::zeros();
+    for k in 0..3 {
+        m[(k, k)] = 1.0 / config.rotation_sigma_rad.powi(2);
+        m[(k + 3, k + 3)] = 1.0 / config.translation_sigma_m.powi(2);
     }
-    // Loop closures between poses within 2 m of an earlier pose at least 20 steps back.
+    m
+}
+
+/// Loop-closure candidates `(i, j)`: each pose `j` with its nearest earlier pose `i`
+/// within 2 m and at least 20 steps back.
+fn revisits(truth: &[Isometry3<f64>]) -> Vec<(usize, usize)> {
     let cell = 2.0;
     let key = |p: &Isometry3<f64>| {
         (
@@ -164,29 +206,18 @@ pub fn generate(config: &SyntheticConfig) -> SyntheticGraph {
         }
         grid.entry((cx, cy)).or_default().push(j);
     }
-    let wanted = config.loop_closures.min(candidates.len());
-    for k in 0..wanted {
-        // Evenly spread over the candidates, with a random jitter inside each stride.
-        let stride = candidates.len() as f64 / wanted as f64;
-        let pick = ((k as f64 + rng.random::<f64>()) * stride) as usize;
-        let (i, j) = candidates[pick.min(candidates.len() - 1)];
-        let z = truth[i].inv_mul(&truth[j]);
-        edges.push(FileEdge {
-            from: i as u64,
-            to: j as u64,
-            measured: noisy(&z, &mut rng, sr, st),
-            information,
-            line: 0,
-        });
-    }
-    let mut vertices = Vec::with_capacity(n);
-    let mut pose = truth[0];
-    vertices.push(FileVertex {
+    candidates
+}
+
+/// The initial guess: the first true pose, then the odometry edges chained.
+fn chained_odometry(first: &Isometry3<f64>, odometry: &[FileEdge]) -> Vec<FileVertex> {
+    let mut pose = *first;
+    let mut vertices = vec![FileVertex {
         id: 0,
         pose,
         line: 0,
-    });
-    for e in edges.iter().take(n - 1) {
+    }];
+    for e in odometry {
         pose *= e.measured;
         vertices.push(FileVertex {
             id: e.to,
@@ -194,17 +225,7 @@ pub fn generate(config: &SyntheticConfig) -> SyntheticGraph {
             line: 0,
         });
     }
-    SyntheticGraph {
-        truth,
-        file: GraphFile {
-            format: FileFormat::G2o,
-            vertices,
-            edges,
-            fixed: vec![0],
-            warnings: Vec::new(),
-            repaired: Vec::new(),
-        },
-    }
+    vertices
 }
 
 /// A uniformly random rotation and a translation uniform in `[-half_width, half_width]³`.

@@ -108,20 +108,12 @@ impl<const B: usize> NormalEquations<B> {
     /// Like [`NormalEquations::analyse`], with the elimination order of the free variables
     /// (indices into the free variables in insertion order) given, e.g. to share the ordering
     /// of another system with the same graph; `None` computes it by AMD.
-    #[allow(clippy::too_many_lines)] // split pending: src/graph is being reworked
     pub fn analyse_with_order(
         held: &[bool],
         factors: &[Factor],
         order: Option<&[usize]>,
     ) -> Result<Self, GraphError> {
-        let mut free_of = vec![HELD; held.len()];
-        let mut free = Vec::new();
-        for (v, &h) in held.iter().enumerate() {
-            if !h {
-                free_of[v] = free.len();
-                free.push(v);
-            }
-        }
+        let (free_of, free) = free_variables(held);
         let nb = free.len();
         let pairs: Vec<(usize, usize)> = factors
             .iter()
@@ -134,17 +126,7 @@ impl<const B: usize> NormalEquations<B> {
             .collect();
         let order = match order {
             Some(o) if o.len() == nb => o.to_vec(),
-            _ => {
-                let mut upper: Vec<Vec<usize>> = vec![Vec::new(); nb];
-                for &(fa, fb) in &pairs {
-                    upper[fa.max(fb)].push(fa.min(fb));
-                }
-                for rows in &mut upper {
-                    rows.sort_unstable();
-                    rows.dedup();
-                }
-                ordering::block_amd(&upper)?
-            }
+            _ => amd_order(nb, &pairs)?,
         };
         // Block columns follow the elimination order, so faer needs no permutation.
         let mut position = vec![0usize; nb];
@@ -156,88 +138,11 @@ impl<const B: usize> NormalEquations<B> {
             .iter()
             .map(|&fi| if fi == HELD { HELD } else { position[fi] })
             .collect();
-        // Strictly-lower block rows of each block column.
-        let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); nb];
-        for &(fa, fb) in &pairs {
-            let (pa, pb) = (position[fa], position[fb]);
-            rows_of[pa.min(pb)].push(pa.max(pb));
-        }
-        for rows in &mut rows_of {
-            rows.sort_unstable();
-            rows.dedup();
-        }
-        let off_count: Vec<usize> = rows_of.iter().map(Vec::len).collect();
-
-        // Scalar lower CSC: in scalar column k of block column c, the diagonal block's rows
-        // k..B, then the rows of the strictly-lower blocks (B each).
+        let rows_of = lower_block_rows(nb, &pairs, &position);
+        let (col_ptr, row_idx, diag_pos) = lower_pattern::<B>(&rows_of);
+        let slots = factor_slots::<B>(factors, &block_of, &rows_of);
         let n = B * nb;
-        let nnz: usize = off_count.iter().map(|m| B * B * m + B * (B + 1) / 2).sum();
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::with_capacity(nnz);
-        let mut diag_pos = Vec::with_capacity(n);
-        col_ptr.push(0);
-        for (c, rows) in rows_of.iter().enumerate() {
-            for k in 0..B {
-                diag_pos.push(row_idx.len());
-                row_idx.extend((k..B).map(|i| B * c + i));
-                for &r in rows {
-                    row_idx.extend((0..B).map(|i| B * r + i));
-                }
-                col_ptr.push(row_idx.len());
-            }
-        }
-
-        let slots = factors
-            .iter()
-            .map(|f| {
-                let [a, b] = f.vars();
-                let block_a = block_of[a];
-                let block_b = if f.is_unary() { HELD } else { block_of[b] };
-                let mut off_rank = 0;
-                if block_a != HELD && block_b != HELD && block_a != block_b {
-                    let (c, r) = (block_a.min(block_b), block_a.max(block_b));
-                    // The row was inserted above, so the search succeeds.
-                    off_rank = B * rows_of[c].binary_search(&r).unwrap_or(0);
-                }
-                FactorSlots {
-                    block_a,
-                    block_b,
-                    off_rank,
-                }
-            })
-            .collect();
-
-        // faer's symbolic analysis without a permutation reads the upper triangle, while its
-        // supernodal numeric factorisation consumes the lower one as is: analyse the
-        // transposed pattern once, hand over the lower values every iteration.
-        let (up_ptr, up_idx) = transpose_pattern(n, &col_ptr, &row_idx);
-        let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_idx);
-        let params = CholeskySymbolicParams {
-            // faer picks the simplicial (column by column) factorisation for long chains
-            // with little fill, which measured 2× slower than the supernodal one on a
-            // 5,000-pose graph; the 6×6 blocks make supernodes worthwhile everywhere. The
-            // 3×3- and 1×1-block systems of the chordal start keep faer's own choice, which
-            // measured faster there (sphere2500's scalar Laplacian: 2.1 instead of 2.4–6.6 ms;
-            // the 27-pose grid's initialisation: 0.075 instead of 0.098 ms).
-            supernodal_flop_ratio_threshold: if B >= 6 {
-                SupernodalThreshold::FORCE_SUPERNODAL
-            } else {
-                SupernodalThreshold::AUTO
-            },
-            ..Default::default()
-        };
-        let symbolic =
-            factorize_symbolic_cholesky(upper, Side::Lower, SymmetricOrdering::Identity, params)
-                .map_err(|e| GraphError::LinearAlgebra(format!("{e:?}")))?;
-        let par = Par::Seq;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-            symbolic.factorize_numeric_llt_scratch::<f32>(par, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(MAX_COLUMNS, par),
-            symbolic.solve_in_place_scratch::<f32>(MAX_COLUMNS, par),
-        ]);
-        let workspace = MemBuffer::try_new(req)
-            .map_err(|_| GraphError::LinearAlgebra("out of memory".into()))?;
+        let (symbolic, workspace) = symbolic_analysis::<B>(n, &col_ptr, &row_idx)?;
         let l_values = vec![0.0; symbolic.len_val()];
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Ok(Self {
@@ -468,6 +373,141 @@ impl<const B: usize> NormalEquations<B> {
     pub fn single_precision_pays(&self) -> bool {
         self.factor_nnz() >= SINGLE_PRECISION_MIN_NNZ
     }
+}
+
+/// Each variable's index among the free ones (`HELD` for held ones), and the free
+/// variables in insertion order.
+fn free_variables(held: &[bool]) -> (Vec<usize>, Vec<usize>) {
+    let mut free_of = vec![HELD; held.len()];
+    let mut free = Vec::new();
+    for (v, &h) in held.iter().enumerate() {
+        if !h {
+            free_of[v] = free.len();
+            free.push(v);
+        }
+    }
+    (free_of, free)
+}
+
+/// The block AMD elimination order of `nb` free variables linked by `pairs`.
+fn amd_order(nb: usize, pairs: &[(usize, usize)]) -> Result<Vec<usize>, GraphError> {
+    let mut upper: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    for &(fa, fb) in pairs {
+        upper[fa.max(fb)].push(fa.min(fb));
+    }
+    for rows in &mut upper {
+        rows.sort_unstable();
+        rows.dedup();
+    }
+    ordering::block_amd(&upper)
+}
+
+/// The strictly-lower block rows of each block column (sorted, unique).
+fn lower_block_rows(nb: usize, pairs: &[(usize, usize)], position: &[usize]) -> Vec<Vec<usize>> {
+    let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    for &(fa, fb) in pairs {
+        let (pa, pb) = (position[fa], position[fb]);
+        rows_of[pa.min(pb)].push(pa.max(pb));
+    }
+    for rows in &mut rows_of {
+        rows.sort_unstable();
+        rows.dedup();
+    }
+    rows_of
+}
+
+/// The scalar lower CSC pattern `(col_ptr, row_idx, diag_pos)`: in scalar column k of
+/// block column c, the diagonal block's rows k..B, then the rows of the strictly-lower
+/// blocks (B each).
+fn lower_pattern<const B: usize>(rows_of: &[Vec<usize>]) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let n = B * rows_of.len();
+    let nnz: usize = rows_of
+        .iter()
+        .map(|m| B * B * m.len() + B * (B + 1) / 2)
+        .sum();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(nnz);
+    let mut diag_pos = Vec::with_capacity(n);
+    col_ptr.push(0);
+    for (c, rows) in rows_of.iter().enumerate() {
+        for k in 0..B {
+            diag_pos.push(row_idx.len());
+            row_idx.extend((k..B).map(|i| B * c + i));
+            for &r in rows {
+                row_idx.extend((0..B).map(|i| B * r + i));
+            }
+            col_ptr.push(row_idx.len());
+        }
+    }
+    (col_ptr, row_idx, diag_pos)
+}
+
+/// Where each factor's blocks land in the pattern.
+fn factor_slots<const B: usize>(
+    factors: &[Factor],
+    block_of: &[usize],
+    rows_of: &[Vec<usize>],
+) -> Vec<FactorSlots> {
+    factors
+        .iter()
+        .map(|f| {
+            let [a, b] = f.vars();
+            let block_a = block_of[a];
+            let block_b = if f.is_unary() { HELD } else { block_of[b] };
+            let mut off_rank = 0;
+            if block_a != HELD && block_b != HELD && block_a != block_b {
+                let (c, r) = (block_a.min(block_b), block_a.max(block_b));
+                // The row was inserted by `lower_block_rows`, so the search succeeds.
+                off_rank = B * rows_of[c].binary_search(&r).unwrap_or(0);
+            }
+            FactorSlots {
+                block_a,
+                block_b,
+                off_rank,
+            }
+        })
+        .collect()
+}
+
+/// faer's symbolic Cholesky of the pattern, and a workspace for every numeric step.
+///
+/// faer's symbolic analysis without a permutation reads the upper triangle, while its
+/// supernodal numeric factorisation consumes the lower one as is: analyse the transposed
+/// pattern once, hand over the lower values every iteration.
+fn symbolic_analysis<const B: usize>(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> Result<(SymbolicCholesky<usize>, MemBuffer), GraphError> {
+    let (up_ptr, up_idx) = transpose_pattern(n, col_ptr, row_idx);
+    let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_idx);
+    let params = CholeskySymbolicParams {
+        // faer picks the simplicial (column by column) factorisation for long chains
+        // with little fill, which measured 2× slower than the supernodal one on a
+        // 5,000-pose graph; the 6×6 blocks make supernodes worthwhile everywhere. The
+        // 3×3- and 1×1-block systems of the chordal start keep faer's own choice, which
+        // measured faster there (sphere2500's scalar Laplacian: 2.1 instead of 2.4–6.6 ms;
+        // the 27-pose grid's initialisation: 0.075 instead of 0.098 ms).
+        supernodal_flop_ratio_threshold: if B >= 6 {
+            SupernodalThreshold::FORCE_SUPERNODAL
+        } else {
+            SupernodalThreshold::AUTO
+        },
+        ..Default::default()
+    };
+    let symbolic =
+        factorize_symbolic_cholesky(upper, Side::Lower, SymmetricOrdering::Identity, params)
+            .map_err(|e| GraphError::LinearAlgebra(format!("{e:?}")))?;
+    let par = Par::Seq;
+    let req = StackReq::any_of(&[
+        symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        symbolic.factorize_numeric_llt_scratch::<f32>(par, Default::default()),
+        symbolic.solve_in_place_scratch::<f64>(MAX_COLUMNS, par),
+        symbolic.solve_in_place_scratch::<f32>(MAX_COLUMNS, par),
+    ]);
+    let workspace =
+        MemBuffer::try_new(req).map_err(|_| GraphError::LinearAlgebra("out of memory".into()))?;
+    Ok((symbolic, workspace))
 }
 
 /// Numeric supernodal `L Lᵀ` of the lower triangle `matrix` into `l_values`; `false` when a
