@@ -19,7 +19,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::atomic::{read_text, write_atomic};
-use crate::error::snippet;
+use crate::error::{snippet, LineError};
 use crate::traverse::header_matches;
 use crate::MapError;
 
@@ -312,41 +312,41 @@ pub fn parse_grid_csv(text: &str, source: &Path) -> Result<LacGrid, MapError> {
     Ok(grid)
 }
 
-fn parse_grid_row(line: &str, line_no: usize) -> Result<Row, String> {
+fn parse_grid_row(line: &str, line_no: usize) -> Result<Row, LineError> {
     let mut f = [""; 6];
     let mut count = 0;
     for field in line.split(',') {
         if count == 6 {
-            return Err(format!("expected 6 fields ({GRID_HEADER}), got more"));
+            return Err(format!("expected 6 fields ({GRID_HEADER}), got more").into());
         }
         f[count] = field.trim();
         count += 1;
     }
     if count < 6 {
-        return Err(format!("expected 6 fields ({GRID_HEADER}), got {count}"));
+        return Err(format!("expected 6 fields ({GRID_HEADER}), got {count}").into());
     }
-    let int = |k: usize, name: &str| -> Result<usize, String> {
+    let int = |k: usize, name: &str| -> Result<usize, LineError> {
         f[k].parse().map_err(|_| {
-            format!(
+            LineError::from(format!(
                 "{name}: expected a non-negative integer, got '{}'",
                 snippet(f[k], 20)
-            )
+            ))
         })
     };
-    let num = |k: usize, name: &str| -> Result<f64, String> {
+    let num = |k: usize, name: &str| -> Result<f64, LineError> {
         let v: f64 = f[k]
             .parse()
             .map_err(|_| format!("{name}: expected a number, got '{}'", snippet(f[k], 20)))?;
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(format!("{name}: '{}' is not a finite number", f[k]))
+            Err(format!("{name}: '{}' is not a finite number", f[k]).into())
         }
     };
     let i = int(0, "i")?;
     let j = int(1, "j")?;
     if i.max(j) >= 100_000 {
-        return Err(format!("cell ({i}, {j}): index too large for a grid"));
+        return Err(format!("cell ({i}, {j}): index too large for a grid").into());
     }
     let x = num(2, "x")?;
     let y = num(3, "y")?;
@@ -369,7 +369,7 @@ fn parse_grid_row(line: &str, line_no: usize) -> Result<Row, String> {
     let rock = match f[5] {
         "1" | "1.0" | "True" | "true" => true,
         "0" | "0.0" | "False" | "false" | "" | "-inf" | "nan" | "NaN" => false,
-        t => return Err(format!("rock: expected 0 or 1, got '{}'", snippet(t, 20))),
+        t => return Err(format!("rock: expected 0 or 1, got '{}'", snippet(t, 20)).into()),
     };
     Ok(Row {
         line: line_no,

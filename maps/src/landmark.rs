@@ -48,54 +48,96 @@ impl Landmark {
     /// (within a small relative tolerance), finite non-negative size.
     ///
     /// The message does not name the landmark; [`crate::ObjectMap::validate`] adds that.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), LandmarkError> {
         let p = &self.position;
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-            return Err(format!(
-                "position ({}, {}, {}) is not finite",
-                p.x, p.y, p.z
-            ));
+            return Err(LandmarkError::Position([p.x, p.y, p.z]));
         }
         check_covariance(&self.covariance)?;
         if let Some(s) = self.size_m {
             if !(s.is_finite() && s >= 0.0) {
-                return Err(format!("size_m {s} is not a finite non-negative number"));
+                return Err(LandmarkError::Size(s));
             }
         }
         Ok(())
     }
 }
 
+/// What is wrong with one landmark ([`Landmark::check`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LandmarkError {
+    /// A coordinate is not finite.
+    #[error("position ({}, {}, {}) is not finite", .0[0], .0[1], .0[2])]
+    Position([f64; 3]),
+    /// The covariance is not a covariance.
+    #[error(transparent)]
+    Covariance(#[from] CovarianceError),
+    /// The size is negative or not finite.
+    #[error("size_m {0} is not a finite non-negative number")]
+    Size(f64),
+}
+
+/// What is wrong with a 3 × 3 covariance ([`check_covariance`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CovarianceError {
+    /// An entry is NaN or infinite.
+    #[error("covariance has a non-finite entry")]
+    NonFinite,
+    /// A diagonal entry is negative.
+    #[error("covariance has a negative variance {axis}{axis} = {value}")]
+    NegativeVariance {
+        /// `x`, `y` or `z`.
+        axis: &'static str,
+        /// The variance.
+        value: f64,
+    },
+    /// Entries `(row, col)` and `(col, row)` differ beyond the tolerance.
+    #[error(
+        "covariance is not symmetric: entry ({row},{col}) = {upper} but ({col},{row}) = {lower}"
+    )]
+    Asymmetric {
+        /// Row of the upper entry.
+        row: usize,
+        /// Column of the upper entry.
+        col: usize,
+        /// The upper entry.
+        upper: f64,
+        /// The lower entry.
+        lower: f64,
+    },
+    /// The smallest eigenvalue is clearly negative.
+    #[error("covariance is not positive semi-definite (smallest eigenvalue {0:e})")]
+    NotPositiveSemidefinite(f64),
+}
+
 /// Check a 3×3 covariance: finite, symmetric, non-negative diagonal, no clearly negative
 /// eigenvalue (tolerance relative to the trace).
-pub fn check_covariance(c: &Matrix3<f64>) -> Result<(), String> {
+pub fn check_covariance(c: &Matrix3<f64>) -> Result<(), CovarianceError> {
     if c.iter().any(|v| !v.is_finite()) {
-        return Err("covariance has a non-finite entry".to_string());
+        return Err(CovarianceError::NonFinite);
     }
     for k in 0..3 {
         if c[(k, k)] < 0.0 {
-            let axis = ["x", "y", "z"][k];
-            return Err(format!(
-                "covariance has a negative variance {axis}{axis} = {}",
-                c[(k, k)]
-            ));
+            return Err(CovarianceError::NegativeVariance {
+                axis: ["x", "y", "z"][k],
+                value: c[(k, k)],
+            });
         }
     }
     let scale = c.trace().max(f64::MIN_POSITIVE);
     for (r, col) in [(0, 1), (0, 2), (1, 2)] {
         if (c[(r, col)] - c[(col, r)]).abs() > COV_REL_TOL * scale {
-            return Err(format!(
-                "covariance is not symmetric: entry ({r},{col}) = {} but ({col},{r}) = {}",
-                c[(r, col)],
-                c[(col, r)]
-            ));
+            return Err(CovarianceError::Asymmetric {
+                row: r,
+                col,
+                upper: c[(r, col)],
+                lower: c[(col, r)],
+            });
         }
     }
     let min_eig = c.symmetric_eigenvalues().min();
     if min_eig < -COV_REL_TOL * scale {
-        return Err(format!(
-            "covariance is not positive semi-definite (smallest eigenvalue {min_eig:e})"
-        ));
+        return Err(CovarianceError::NotPositiveSemidefinite(min_eig));
     }
     Ok(())
 }
@@ -139,27 +181,27 @@ mod tests {
     fn nan_position_fails() {
         let mut l = lm();
         l.position.y = f64::NAN;
-        assert!(l.check().unwrap_err().contains("not finite"));
+        assert!(l.check().unwrap_err().to_string().contains("not finite"));
     }
 
     #[test]
     fn negative_variance_fails() {
         let mut l = lm();
         l.covariance[(2, 2)] = -0.1;
-        assert!(l.check().unwrap_err().contains("zz"));
+        assert!(l.check().unwrap_err().to_string().contains("zz"));
     }
 
     #[test]
     fn asymmetric_or_indefinite_fails() {
         let mut l = lm();
         l.covariance[(0, 1)] = 0.01;
-        assert!(l.check().unwrap_err().contains("symmetric"));
+        assert!(l.check().unwrap_err().to_string().contains("symmetric"));
         l.covariance[(1, 0)] = 0.01;
         assert!(l.check().is_ok());
         // |xy| > sqrt(xx yy): indefinite
         l.covariance[(0, 1)] = 0.1;
         l.covariance[(1, 0)] = 0.1;
-        assert!(l.check().unwrap_err().contains("semi-definite"));
+        assert!(l.check().unwrap_err().to_string().contains("semi-definite"));
     }
 
     #[test]

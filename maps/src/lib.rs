@@ -49,7 +49,7 @@ pub use grid::{
     grid_to_string, parse_grid_csv, read_grid_csv, write_grid_csv, LacGrid, GRID_HEADER,
     LAC_CELLS_PER_SIDE, LAC_CELL_SIZE_M,
 };
-pub use landmark::{check_covariance, Landmark};
+pub use landmark::{check_covariance, CovarianceError, Landmark, LandmarkError};
 pub use map_file::{
     map_from_str, map_to_string, read_map, write_map, MAP_FORMAT_NAME, MAP_FORMAT_VERSION,
 };

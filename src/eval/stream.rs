@@ -19,6 +19,7 @@
 
 use super::lunarloc::{common_landmarks, PAPER_PAIRS, TRAVERSES};
 use super::{transform_error, traverse_path};
+use crate::field_error::FieldError;
 use crate::landmarks::{fuse_detections, FusionConfig};
 use crate::localizer::{Localizer, LocalizerConfig, LocalizerError, Measurement, SessionResult};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -76,19 +77,26 @@ impl Default for DriftConfig {
 
 impl DriftConfig {
     /// Check the values are finite (and the walk non-negative, the scale above −1).
-    pub fn validate(&self) -> Result<(), String> {
-        let finite = [
-            self.yaw_walk_rad_per_sqrt_m,
-            self.yaw_drift_deg_per_10m,
-            self.scale_error,
-        ]
-        .iter()
-        .all(|v| v.is_finite());
-        if !finite || self.yaw_walk_rad_per_sqrt_m < 0.0 || self.scale_error <= -1.0 {
-            return Err(format!(
-                "drift: yaw walk {} rad/√m must be ≥ 0, yaw drift {} °/10 m finite, scale \
-                 error {} above -1",
-                self.yaw_walk_rad_per_sqrt_m, self.yaw_drift_deg_per_10m, self.scale_error
+    pub fn validate(&self) -> Result<(), FieldError> {
+        let bad = |field: &str, value: f64, rule: &str| {
+            FieldError::new(field, format!("must be {rule}, got {value}")).within("drift")
+        };
+        let walk = self.yaw_walk_rad_per_sqrt_m;
+        if !(walk.is_finite() && walk >= 0.0) {
+            return Err(bad("yaw_walk_rad_per_sqrt_m", walk, "a finite number ≥ 0"));
+        }
+        if !self.yaw_drift_deg_per_10m.is_finite() {
+            return Err(bad(
+                "yaw_drift_deg_per_10m",
+                self.yaw_drift_deg_per_10m,
+                "a finite number",
+            ));
+        }
+        if !(self.scale_error.is_finite() && self.scale_error > -1.0) {
+            return Err(bad(
+                "scale_error",
+                self.scale_error,
+                "a finite number above -1",
             ));
         }
         Ok(())
@@ -740,8 +748,8 @@ pub enum StreamError {
     #[error("pair ({0}, {1}): traverses are numbered 1 to {TRAVERSES} and must differ")]
     BadPair(usize, usize),
     /// The drift is out of range.
-    #[error("{0}")]
-    Drift(String),
+    #[error(transparent)]
+    Drift(#[from] FieldError),
     /// The localizer failed on a pair.
     #[error("pair ({prior}, {query}): {source}")]
     Localizer {

@@ -4,53 +4,23 @@
 use super::boulder_adjustment::BoulderAdjustmentConfig;
 use super::lander_factor::LanderFitConfig;
 use super::view_bias::ViewBiasConfig;
+use crate::field_error::FieldError;
 use crate::landmarks::{CentroidEstimator, FusionConfig};
 use crate::relocalize::RelocalizeConfig;
 use serde::{Deserialize, Serialize};
 
-/// A configuration value out of range: the TOML path of the field and what is wrong.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{field}: {problem}")]
-pub struct ConfigError {
-    /// TOML path of the field, e.g. `gate.yaw_deg`.
-    pub field: String,
-    /// What is wrong with its value.
-    pub problem: String,
-}
-
-impl ConfigError {
-    /// The error of `field` with `problem`.
-    pub fn new(field: impl Into<String>, problem: impl Into<String>) -> Self {
-        Self {
-            field: field.into(),
-            problem: problem.into(),
-        }
-    }
-
-    /// The same error under the section `prefix` (`prefix.field`).
-    pub fn within(self, prefix: &str) -> Self {
-        Self {
-            field: format!("{prefix}.{}", self.field),
-            ..self
-        }
-    }
-}
-
 /// `Ok` when every value is finite and positive, else the first offender.
-fn positive(fields: &[(&str, f64)]) -> Result<(), ConfigError> {
+fn positive(fields: &[(&str, f64)]) -> Result<(), FieldError> {
     match fields.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-        Some((name, v)) => Err(ConfigError::new(
-            *name,
-            format!("must be positive, not {v}"),
-        )),
+        Some((name, v)) => Err(FieldError::new(*name, format!("must be positive, not {v}"))),
         None => Ok(()),
     }
 }
 
 /// `Ok` when every value is finite and non-negative, else the first offender.
-fn non_negative(fields: &[(&str, f64)]) -> Result<(), ConfigError> {
+fn non_negative(fields: &[(&str, f64)]) -> Result<(), FieldError> {
     match fields.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
-        Some((name, v)) => Err(ConfigError::new(
+        Some((name, v)) => Err(FieldError::new(
             *name,
             format!("must be non-negative, not {v}"),
         )),
@@ -76,12 +46,9 @@ impl Default for ScheduleConfig {
 
 impl ScheduleConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         if !(self.relocalize_period_s.is_finite() && self.relocalize_period_s >= 1.0) {
-            return Err(ConfigError::new(
-                "relocalize_period_s",
-                "must be at least 1",
-            ));
+            return Err(FieldError::new("relocalize_period_s", "must be at least 1"));
         }
         Ok(())
     }
@@ -116,7 +83,7 @@ impl Default for SubmapConfig {
 
 impl SubmapConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         positive(&[
             ("window_s", self.window_s),
             ("max_turn_deg", self.max_turn_deg),
@@ -167,7 +134,7 @@ impl Default for GateConfig {
 
 impl GateConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         positive(&[
             ("position_m", self.position_m),
             ("yaw_deg", self.yaw_deg),
@@ -202,7 +169,7 @@ impl Default for OdometryNoiseConfig {
 
 impl OdometryNoiseConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         positive(&[
             ("translation_sigma_m_per_m", self.translation_sigma_m_per_m),
             ("yaw_sigma_rad_per_m", self.yaw_sigma_rad_per_m),
@@ -242,7 +209,7 @@ impl Default for CalibrationConfig {
 
 impl CalibrationConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         positive(&[
             ("prior_scale", self.prior_scale),
             ("prior_yaw_drift_rad_per_m", self.prior_yaw_drift_rad_per_m),
@@ -282,7 +249,7 @@ impl Default for FactorConfig {
 
 impl FactorConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         positive(&[
             (
                 "relocalization_information_scale",
@@ -324,7 +291,7 @@ impl Default for LoopClosureConfig {
 
 impl LoopClosureConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         non_negative(&[("gap_s", self.gap_s)])?;
         positive(&[
             ("start_map_max_motion_m", self.start_map_max_motion_m),
@@ -421,7 +388,7 @@ impl LocalizerConfig {
     }
 
     /// Check every section; the error names the TOML path of the field.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         self.schedule.validate().map_err(|e| e.within("schedule"))?;
         self.submap.validate().map_err(|e| e.within("submap"))?;
         self.gate.validate().map_err(|e| e.within("gate"))?;
@@ -436,16 +403,13 @@ impl LocalizerConfig {
         self.lander.validate().map_err(|e| e.within("lander"))?;
         self.fusion
             .validate()
-            .map_err(|m| ConfigError::new("fusion", m.to_string()))?;
+            .map_err(|m| FieldError::new("fusion", m.to_string()))?;
         self.boulder_adjustment
             .validate()
-            .map_err(|m| ConfigError::new("boulder_adjustment", m.to_string()))?;
+            .map_err(|m| FieldError::new("boulder_adjustment", m.to_string()))?;
         let stretch_s = self.view_bias.stretch_s;
         if !(stretch_s.is_finite() && stretch_s >= 1.0) {
-            return Err(ConfigError::new(
-                "view_bias.stretch_s",
-                "must be at least 1",
-            ));
+            return Err(FieldError::new("view_bias.stretch_s", "must be at least 1"));
         }
         Ok(())
     }

@@ -6,10 +6,10 @@
 //! side constrains (along a single seen side, and roll, pitch, height) get almost none.
 //! Uses only the measured points and the lander's known geometry.
 
-use super::config::ConfigError;
 use super::frame_log::FrameLog;
 use super::trajectory::TrajectoryGraph;
 use super::LocalizerConfig;
+use crate::field_error::FieldError;
 use crate::graph::{GraphError, RobustKernel};
 pub use crate::ipex::LANDER_HALF_EXTENT_M;
 use crate::landmarks::stereo_noise::StereoNoiseConfig;
@@ -73,7 +73,7 @@ impl Default for LanderFitConfig {
 
 impl LanderFitConfig {
     /// Check the values are in range.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), FieldError> {
         let positive = [
             ("half_extent_m", self.half_extent_m),
             ("max_residual_m", self.max_residual_m),
@@ -84,10 +84,7 @@ impl LanderFitConfig {
             ("regularization", self.regularization),
         ];
         match positive.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-            Some((name, v)) => Err(ConfigError::new(
-                *name,
-                format!("must be positive, not {v}"),
-            )),
+            Some((name, v)) => Err(FieldError::new(*name, format!("must be positive, not {v}"))),
             None => Ok(()),
         }
     }

@@ -48,7 +48,8 @@ pub mod view_bias;
 
 mod session;
 
-pub use config::{ConfigError, LocalizerConfig};
+pub use crate::field_error::FieldError;
+pub use config::LocalizerConfig;
 pub use report::{
     AttemptRecord, AttemptRefusal, AttemptStatus, Confirmation, FrameOutput, LocalizerEvent,
     Measurement,
@@ -64,7 +65,7 @@ use crate::relocalize::RelocalizeError;
 pub enum LocalizerError {
     /// A configuration value is out of range.
     #[error("invalid localizer configuration: {0}")]
-    Config(#[from] ConfigError),
+    Config(#[from] FieldError),
     /// A frame was refused (its time, or a value that is not finite).
     #[error("frame {index} (t = {t} s): {problem}")]
     Frame {
