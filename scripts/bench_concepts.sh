@@ -14,9 +14,8 @@ peer="${1:?usage: $0 PEER_BINARY [ROUNDS]}"
 rounds="${2:-3}"
 images="${SEGLOC_DATA:-../shared/data}/lac-images"
 [ -d "$images" ] || { echo "bench_concepts: no LAC images at $images (set SEGLOC_DATA)" >&2; exit 1; }
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[[ -n "${SEGLOC_BIN:-}" ]] || cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 load_start=$(cut -d' ' -f1 /proc/loadavg)

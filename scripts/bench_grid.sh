@@ -11,9 +11,8 @@ repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
 data="${SEGLOC_DATA:-../shared/data}"
 [ -d "$data/lunarloc" ] || { echo "bench_grid: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[ -n "${SEGLOC_BIN:-}" ] || nice -n 10 cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 out="$target/bench/grid"
 mkdir -p "$out"
 export RAYON_NUM_THREADS=1

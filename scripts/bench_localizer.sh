@@ -17,9 +17,8 @@ for a in "$@"; do
 done
 seed="${args[0]:-1}"
 seconds="${args[1]:-$([[ $quick == 1 ]] && echo 600 || echo 5000)}"
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[[ -n "${SEGLOC_BIN:-}" ]] || cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 "$bin" sim export --seed "$seed" --session 2 --seconds "$seconds" \

@@ -10,9 +10,8 @@ cd "$(dirname "$0")/.."
 data="${SEGLOC_DATA:-../shared/data}"
 truth="$data/lac-groundtruth/moon_map_01_preset_1.csv"
 [ -f "$truth" ] || { echo "bench_mapping: no LAC ground truth at $truth (set SEGLOC_DATA)" >&2; exit 1; }
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[[ -n "${SEGLOC_BIN:-}" ]] || cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 traverses=()

@@ -7,11 +7,10 @@
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
-data="${SEGLOC_DATA:-../shared/data}"
-[ -d "$data/lunarloc" ] || { echo "bench_merge: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
-cargo build --release --quiet
-bin="${CARGO_TARGET_DIR:-target}/release/segloc"
-out=target/bench
+source scripts/bench_lib.sh
+need_data lunarloc bench_merge
+segloc_bin
+out="$target/bench"
 mkdir -p "$out"
 echo "[bench_merge] 5 agents + 1 decoy, 100 trials" >&2
 $bin eval merge --data "$data" --agents 5 --decoys 1 --trials 100 --seed 1 --json > "$out/merge5.json"

@@ -19,9 +19,8 @@ while [[ $# -gt 0 ]]; do
     *) first=$1 last=$2; shift 2 ;;
   esac
 done
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[[ -n "${SEGLOC_BIN:-}" ]] || cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 dir="${from:-$target/bench/mission}"
 if [[ -z "$from" ]]; then
   mkdir -p "$dir"

@@ -18,9 +18,8 @@ for a in "$@"; do
 done
 images="${SEGLOC_DATA:-../shared/data}/lac-images"
 [ -d "$images" ] || { echo "bench_perception: no LAC images at $images (set SEGLOC_DATA)" >&2; exit 1; }
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[[ -n "${SEGLOC_BIN:-}" ]] || cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 load_start=$(cut -d' ' -f1 /proc/loadavg)

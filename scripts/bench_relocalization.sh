@@ -8,11 +8,10 @@
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
-data="${SEGLOC_DATA:-../shared/data}"
-[ -d "$data/lunarloc" ] || { echo "bench_relocalization: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
-cargo build --release --quiet --bin segloc --example submap_negatives
-bin=target/release/segloc
-out=target/bench
+source scripts/bench_lib.sh
+need_data lunarloc bench_relocalization
+segloc_bin --example submap_negatives
+out="$target/bench"
 mkdir -p "$out"
 
 echo "[bench_relocalization] landmarks" >&2
@@ -25,8 +24,8 @@ echo "[bench_relocalization] all 136 pairs 4-DOF" >&2
 $bin eval lunarloc --data "$data" --pairs all --trials 10 --seed 1 --dof 4 --json > "$out/all4.json"
 echo "[bench_relocalization] negatives: mirrored traverses and submaps" >&2
 $bin eval lunarloc --data "$data" --pairs all --negatives --trials 20 --seed 1 --dof 4 --json > "$out/negatives.json"
-SEGLOC_DATA="$data" target/release/examples/submap_negatives 600 > "$out/submaps_negative.txt"
-SEGLOC_DATA="$data" target/release/examples/submap_negatives 600 positives > "$out/submaps_positive.txt"
+SEGLOC_DATA="$data" "$target/release/examples/submap_negatives" 600 > "$out/submaps_negative.txt"
+SEGLOC_DATA="$data" "$target/release/examples/submap_negatives" 600 positives > "$out/submaps_positive.txt"
 
 python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores" "$(git rev-parse --short HEAD)" <<'PY'
 import json, sys

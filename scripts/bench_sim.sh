@@ -15,9 +15,8 @@ for a in "$@"; do
     *) echo "usage: $0 [--quick] [--print]" >&2; exit 2 ;;
   esac
 done
-target="${CARGO_TARGET_DIR:-target}"
-bin="${SEGLOC_BIN:-$target/release/segloc}"
-[[ -n "${SEGLOC_BIN:-}" ]] || cargo build --release --quiet --bin segloc
+source scripts/bench_lib.sh
+segloc_bin
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 load_start=$(cut -d' ' -f1 /proc/loadavg)

@@ -12,16 +12,9 @@
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
-data="${SEGLOC_DATA:-../shared/data}"
-[ -d "$data/lunarloc" ] || { echo "bench_stream: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
-target="${CARGO_TARGET_DIR:-target}"
-# SEGLOC_BIN: an already built binary (skips the build)
-if [ -n "${SEGLOC_BIN:-}" ]; then
-  bin="$SEGLOC_BIN"
-else
-  cargo build --release --quiet --bin segloc
-  bin="$target/release/segloc"
-fi
+source scripts/bench_lib.sh
+need_data lunarloc bench_stream
+segloc_bin
 out="$target/bench"
 mkdir -p "$out"
 print=0 quick=0 extra=()

@@ -10,11 +10,9 @@
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
-data="${SEGLOC_DATA:-../shared/data}"
-[ -d "$data/lunarloc" ] || { echo "bench_tilt: no LunarLoc data at $data (set SEGLOC_DATA)" >&2; exit 1; }
-target="${CARGO_TARGET_DIR:-target}"
-cargo build --release --quiet --bin segloc
-bin="$target/release/segloc"
+source scripts/bench_lib.sh
+need_data lunarloc bench_tilt
+segloc_bin
 out="$target/bench/tilt"
 mkdir -p "$out"
 
