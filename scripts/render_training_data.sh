@@ -11,7 +11,7 @@
 # on): 901..900+N_VAL.
 # usage: scripts/render_training_data.sh OUT_DIR [N_TRAIN (38)] [N_VAL (4)] [N_LOW (10)]
 #   env: SEGLOC_BIN (default $CARGO_TARGET_DIR/release/segloc), SECONDS_PER_SEED (60),
-#        EVERY (40 ticks = 2 s)
+#        EVERY (40 ticks = 2 s), HALF (1: 640 × 360, the training size; 0: full 1280 × 720)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT="${1:?usage: scripts/render_training_data.sh OUT_DIR [N_TRAIN] [N_VAL]}"
@@ -21,6 +21,7 @@ N_LOW="${4:-10}"
 BIN="${SEGLOC_BIN:-${CARGO_TARGET_DIR:-target}/release/segloc}"
 SECS="${SECONDS_PER_SEED:-60}"
 EVERY="${EVERY:-40}"
+HALF_FLAG=$([ "${HALF:-1}" = 1 ] && echo --half || true)
 mkdir -p "$OUT/train" "$OUT/val"
 
 render() { # seed dir [low]
@@ -36,7 +37,7 @@ render() { # seed dir [low]
   printf 'rock_albedo = %s\nregolith_albedo = %s\nexposure_dn = %s\nnoise_seed = %s\n' \
     "$rock_albedo" "$regolith" "$exposure" "$seed" >"$cfg"
   echo "seed $seed: sun elevation $elev, azimuth $azim, session $session, $(tr '\n' ' ' <"$cfg")" >&2
-  nice -n 10 "$BIN" sim render --seed "$seed" --session "$session" --seconds "$SECS" --every "$EVERY" --half \
+  nice -n 10 "$BIN" sim render --seed "$seed" --session "$session" --seconds "$SECS" --every "$EVERY" $HALF_FLAG \
     --sun-elevation "$elev" --sun-azimuth "$azim" --render-config "$cfg" -o "$dir" --overwrite >/dev/null
 }
 
