@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use segloc::perception::{FrontEnd, FrontEndTiming, GeometricSegmenter, GrayImage};
+use segloc::perception::{FrontEnd, FrontEndTiming, GrayImage};
 use serde_json::{json, Value};
 
 use super::detect::read_stereo_pair;
@@ -35,6 +35,12 @@ pub struct BenchDetectArgs {
     /// Untimed rounds first (the very first frame of the process is reported apart).
     #[arg(long, default_value_t = 1)]
     pub warmup: usize,
+    /// The segmenter.
+    #[arg(long, value_enum, default_value = "geometric")]
+    pub segmenter: super::detect::SegmenterKind,
+    /// ONNX model (`--segmenter onnx`, or another model for `learned`).
+    #[arg(long, value_name = "ONNX")]
+    pub model: Option<PathBuf>,
     /// Front-end settings (TOML, as printed by `segloc detect --print-config`).
     #[arg(long, value_name = "TOML")]
     pub frontend_config: Option<PathBuf>,
@@ -86,8 +92,8 @@ struct Runs {
 /// Runs the warm-up and timed rounds, one front end for every frame.
 fn time_rounds(args: &BenchDetectArgs, pairs: &[Pair]) -> Result<Runs> {
     let config = super::detect::load_frontend_config(args.frontend_config.as_deref())?;
-    let segmenter = GeometricSegmenter::new(config.geometric.clone());
-    let mut front_end = FrontEnd::new(config, Box::new(segmenter))?;
+    let segmenter = super::detect::make_segmenter(args.segmenter, args.model.as_deref(), &config)?;
+    let mut front_end = FrontEnd::new(config, segmenter)?;
     let mut runs = Runs {
         timings: vec![Vec::new(); pairs.len()],
         boulders: vec![0usize; pairs.len()],

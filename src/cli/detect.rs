@@ -6,7 +6,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use nalgebra::Point3;
 use segloc::perception::lac::{ImageKind, LacRecording};
-use segloc::perception::onnx::OnnxSegmenter;
+use segloc::perception::onnx::{shipped_model, LearnedSegmenter, OnnxSegmenter};
 use segloc::perception::{
     overlay::write_overlay, read_gray_png, write_gray_png, DisparityMap, FrontEnd, FrontEndConfig,
     GeometricSegmenter, GrayImage, Segmenter,
@@ -21,6 +21,9 @@ pub enum SegmenterKind {
     Geometric,
     /// A FastSAM / YOLOv8-seg ONNX model (`--model`).
     Onnx,
+    /// segloc's U-Net trained on rendered frames (`models/boulders.onnx`, found beside
+    /// the binary or through `SEGLOC_MODELS`; `--model` overrides it).
+    Learned,
 }
 
 /// Arguments of `segloc detect`.
@@ -41,7 +44,7 @@ pub struct DetectArgs {
     /// The segmenter.
     #[arg(long, value_enum, default_value = "geometric")]
     pub segmenter: SegmenterKind,
-    /// ONNX model file for `--segmenter onnx`.
+    /// ONNX model file for `--segmenter onnx` (or another model for `--segmenter learned`).
     #[arg(long, value_name = "ONNX")]
     pub model: Option<PathBuf>,
     /// Write an overlay picture (RGB PNG) of what was found.
@@ -68,7 +71,7 @@ pub fn run(args: &DetectArgs) -> Result<i32> {
         print!("{}", toml::to_string_pretty(&config)?);
         return Ok(0);
     }
-    let segmenter = make_segmenter(args, &config)?;
+    let segmenter = make_segmenter(args.segmenter, args.model.as_deref(), &config)?;
     let mut front_end = FrontEnd::new(config, segmenter)?;
     match (&args.left, &args.right, &args.lac) {
         (Some(left), Some(right), None) => detect_pair(args, &mut front_end, left, right),
@@ -87,20 +90,36 @@ pub(super) fn load_frontend_config(path: Option<&Path>) -> Result<FrontEndConfig
     toml::from_str(&text).with_context(|| format!("front-end config {}", path.display()))
 }
 
-fn make_segmenter(args: &DetectArgs, config: &FrontEndConfig) -> Result<Box<dyn Segmenter>> {
-    match args.segmenter {
+/// The segmenter of this kind (`model`: the ONNX file for `onnx`, or another model than
+/// the shipped one for `learned`).
+pub(super) fn make_segmenter(
+    kind: SegmenterKind,
+    model: Option<&Path>,
+    config: &FrontEndConfig,
+) -> Result<Box<dyn Segmenter>> {
+    match kind {
         SegmenterKind::Geometric => {
-            if args.model.is_some() {
-                bail!("--model is only used with --segmenter onnx");
+            if model.is_some() {
+                bail!("--model is only used with --segmenter onnx or learned");
             }
             Ok(Box::new(GeometricSegmenter::new(config.geometric.clone())))
         }
         SegmenterKind::Onnx => {
-            let Some(model) = &args.model else {
+            let Some(model) = model else {
                 bail!("--segmenter onnx needs --model <file.onnx>");
             };
             let segmenter = OnnxSegmenter::load(model, config.onnx.clone())?;
             Ok(Box::new(segmenter))
+        }
+        SegmenterKind::Learned => {
+            let path = match model {
+                Some(p) => p.to_path_buf(),
+                None => shipped_model()?,
+            };
+            Ok(Box::new(LearnedSegmenter::load(
+                &path,
+                config.learned.clone(),
+            )?))
         }
     }
 }

@@ -1,4 +1,4 @@
-//! `segloc eval lunarloc|merge|landmarks|stream`.
+//! `segloc eval lunarloc|merge|landmarks|stream|segmenter`.
 
 use super::print_json;
 use super::relocalize::parse_dof;
@@ -36,6 +36,8 @@ pub enum EvalCommand {
     /// Global localization: every LunarLoc traverse (and 60 s submap) against the
     /// ground-truth rock grid, under random rigid transforms, with no prior session.
     Grid(super::eval_grid::GridArgs),
+    /// A segmenter's recall and precision on the real LAC pairs against hand labels.
+    Segmenter(super::eval_segmenter::EvalSegmenterArgs),
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks(LandmarksArgs),
 }
@@ -161,6 +163,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
         EvalCommand::Merge(args) => run_merge(args, config),
         EvalCommand::Stream(args) => run_stream(args, config),
         EvalCommand::Grid(args) => super::eval_grid::run(args, config),
+        EvalCommand::Segmenter(args) => super::eval_segmenter::run(args),
         EvalCommand::Landmarks(args) => run_landmarks(args, config),
     }
 }

@@ -7,6 +7,7 @@ mod demo;
 mod detect;
 mod eval;
 mod eval_grid;
+mod eval_segmenter;
 mod graph;
 mod graph_stereo;
 mod grid;

@@ -5,6 +5,8 @@
 //! - [`grid`]: global localization of traverses and submaps against the rock grid;
 //! - [`merge`]: map merging with traverses as agents;
 //! - [`landmark_quality`]: how well fused landmarks land on the ground-truth rock cells;
+//! - [`segmenter_labels`]: a segmenter's recall and precision against hand labels of
+//!   the real LAC pairs' rocks;
 //! - [`stream`]: traverses replayed frame by frame through the online localizer against
 //!   another traverse's map;
 //! - [`transform_error`]: the error measures.
@@ -13,6 +15,7 @@ pub mod grid;
 pub mod landmark_quality;
 pub mod lunarloc;
 pub mod merge;
+pub mod segmenter_labels;
 pub mod stream;
 
 use nalgebra::{Isometry3, Point3};

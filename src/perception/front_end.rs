@@ -26,6 +26,8 @@ pub struct FrontEndConfig {
     pub boulders: BoulderConfig,
     /// Decoding of an ONNX segmenter's outputs.
     pub onnx: super::onnx::YoloSegConfig,
+    /// Decoding of the learned segmenter's outputs.
+    pub learned: super::unet_decoder::UnetDecoderConfig,
 }
 
 /// Wall-clock times of the stages, milliseconds.

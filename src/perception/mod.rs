@@ -6,7 +6,8 @@
 //!    costs, with the [`StereoCamera`] model of the IPEX front pair;
 //! 2. a [`Segmenter`] turns the left image (and the disparity) into instance masks:
 //!    [`GeometricSegmenter`] finds what stands out of the local ground surface, the ONNX
-//!    segmenter decodes a FastSAM / YOLOv8-seg model;
+//!    segmenter decodes a FastSAM / YOLOv8-seg model, and the learned segmenter runs
+//!    segloc's own U-Net trained on rendered frames ([`unet_decoder`]);
 //! 3. [`boulders`]: masks that touch the border, are too elongated or of an implausible
 //!    physical size are dropped; the rest become boulders with a 3D centroid and a size.
 //!
@@ -36,9 +37,11 @@ pub mod onnx;
 pub mod overlay;
 pub mod render;
 pub mod segmenter;
+pub mod unet_decoder;
 
 pub use boulders::{boulders_from_masks, Boulder, BoulderConfig, Rejection};
 pub use front_end::{FrameResult, FrontEnd, FrontEndConfig, FrontEndTiming};
 pub use geometric::{GeometricConfig, GeometricSegmenter};
 pub use mask::Mask;
 pub use segmenter::{SegmentInput, Segmenter};
+pub use unet_decoder::{decode_unet, UnetDecoderConfig};

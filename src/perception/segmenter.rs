@@ -15,9 +15,10 @@ pub struct SegmentInput<'a> {
 
 /// Turns a frame into instance masks in left-image pixel coordinates. Implementations:
 /// [`GeometricSegmenter`](super::GeometricSegmenter) (training-free, from the depth) and
-/// [`OnnxSegmenter`](super::onnx::OnnxSegmenter) (a FastSAM / YOLOv8-seg model).
+/// [`OnnxSegmenter`](super::onnx::OnnxSegmenter) (a FastSAM / YOLOv8-seg model) and
+/// [`LearnedSegmenter`](super::onnx::LearnedSegmenter) (segloc's U-Net).
 pub trait Segmenter: Send {
-    /// A short name for reports ("geometric", "onnx").
+    /// A short name for reports ("geometric", "onnx", "learned").
     fn name(&self) -> &'static str;
 
     /// The masks of the objects in this frame, with a confidence each.

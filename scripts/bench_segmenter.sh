@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Learned vs geometric segmenter: recall / precision on the 8 real LAC pairs against the hand
+# labels (tests/fixtures/real_rock_labels.csv), and on held-out rendered seeds against the
+# renderer's truth (scripts/eval_rendered_segmenter.py), plus the learned model's time.
+# Prints a short markdown section (copy it to the benchmarks page by hand).
+#
+# usage: scripts/bench_segmenter.sh [VAL_DIR (default: renders held-out seeds 901-904 at
+#        1280 × 720 into a temp dir, the appearance drawn as for the training frames)]
+# env:   SEGLOC_BIN (default $CARGO_TARGET_DIR/release/segloc), PYTHON (needs numpy, pillow)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
+BIN="${SEGLOC_BIN:-$CARGO_TARGET_DIR/release/segloc}"
+PY="${PYTHON:-python3}"
+DATA="${SEGLOC_DATA:-../shared/data}"
+LABELS=tests/fixtures/real_rock_labels.csv
+TMP="$(mktemp -d)"
+trap 'rm -rf "$TMP"' EXIT
+VAL="${1:-}"
+if [ -z "$VAL" ]; then
+  VAL="$TMP/data"
+  HALF=0 EVERY=60 SEGLOC_BIN="$BIN" scripts/render_training_data.sh "$VAL" 0 4 0 2>/dev/null
+  VAL="$VAL/val"
+fi
+for s in geometric learned; do
+  "$BIN" eval segmenter --labels "$LABELS" --data "$DATA" --segmenter "$s" --json >"$TMP/real_$s.json"
+  "$PY" scripts/eval_rendered_segmenter.py "$BIN" "$s" "$VAL"/seed* --json >"$TMP/rendered_$s.json"
+done
+"$PY" - "$TMP" "$LABELS" "$VAL" <<'PY'
+import datetime, json, sys
+tmp, labels, val = sys.argv[1:4]
+real = {s: json.load(open(f"{tmp}/real_{s}.json")) for s in ("geometric", "learned")}
+rend = {s: json.load(open(f"{tmp}/rendered_{s}.json")) for s in ("geometric", "learned")}
+print("## Segmenters: learned (U-Net, models/boulders.onnx) vs geometric\n")
+print(f"{datetime.date.today()}, AMD EPYC, 2 cores. Real: 8 LAC pairs vs {labels} "
+      f"({real['learned']['total']['rocks']} rocks within 8 m). Rendered: held-out seeds 901-904 (1280 x 720 unless VAL_DIR is given), "
+      "rocks >= 10 cm within 6 m.\n")
+print("| segmenter | real recall | real precision | rendered recall | rendered precision | centroid error (median) | segment ms/pair |")
+print("|---|---|---|---|---|---|---|")
+for s in ("geometric", "learned"):
+    r, g = real[s], rend[s]
+    ce = g["centroid_error_median_m"]
+    print(f"| {s} | {r['recall']:.2f} | {r['precision']:.2f} | {g['recall']:.2f} | {g['precision']:.2f} | "
+          f"{'-' if ce is None else f'{ce*100:.1f} cm'} | {r['mean_segment_ms']:.0f} |")
+print()
+pairs = " ".join(
+    f"{p['pair']} {p['score']['found']}/{p['score']['rocks']} fp {p['score']['false_positives']};"
+    for p in real["learned"]["pairs"])
+print(f"Learned per pair (found/rocks, false positives): {pairs}")
+pairs = " ".join(
+    f"{p['pair']} {p['score']['found']}/{p['score']['rocks']} fp {p['score']['false_positives']};"
+    for p in real["geometric"]["pairs"])
+print(f"Geometric per pair: {pairs}\n")
+print("Command: `scripts/bench_segmenter.sh` (real pairs: `segloc eval segmenter --labels "
+      f"{labels} --segmenter S`; rendered: `scripts/eval_rendered_segmenter.py`).")
+PY
