@@ -36,6 +36,7 @@ sections=(
   "python|scripts/bench_python.sh $(q '--rounds 1 --repeat 5' '--rounds 5 --repeat 20')"
   "mapping|scripts/bench_mapping.sh"
   "perception|scripts/bench_perception.sh $(q --quick)"
+  "segmenter|scripts/bench_segmenter.sh"
   "render|scripts/bench_render.sh $(q 11)"
   "sim|scripts/bench_sim.sh $(q --quick)"
   "mission|scripts/bench_mission.sh $(q --quick)"

@@ -2,9 +2,9 @@
 # Learned vs geometric segmenter: recall / precision on the 8 real LAC pairs against the hand
 # labels (tests/fixtures/real_rock_labels.csv), and on held-out rendered seeds against the
 # renderer's truth (scripts/eval_rendered_segmenter.py), plus the learned model's time.
-# Prints a short markdown section (copy it to the benchmarks page by hand).
+# Writes the section "segmenter" of BENCHMARKS.md (with --print: prints it instead).
 #
-# usage: scripts/bench_segmenter.sh [VAL_DIR (default: renders held-out seeds 901-904 at
+# usage: scripts/bench_segmenter.sh [--print] [VAL_DIR (default: renders held-out seeds 901-904 at
 #        1280 × 720 into a temp dir, the appearance drawn as for the training frames)]
 # env:   SEGLOC_BIN (default $CARGO_TARGET_DIR/release/segloc), PYTHON (needs numpy, pillow)
 set -euo pipefail
@@ -16,6 +16,8 @@ DATA="${SEGLOC_DATA:-../shared/data}"
 LABELS=tests/fixtures/real_rock_labels.csv
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
+print=0
+if [[ "${1:-}" == "--print" ]]; then print=1; shift; fi
 VAL="${1:-}"
 if [ -z "$VAL" ]; then
   VAL="$TMP/data"
@@ -26,7 +28,7 @@ for s in geometric learned; do
   "$BIN" eval segmenter --labels "$LABELS" --data "$DATA" --segmenter "$s" --json >"$TMP/real_$s.json"
   "$PY" scripts/eval_rendered_segmenter.py "$BIN" "$s" "$VAL"/seed* --json >"$TMP/rendered_$s.json"
 done
-"$PY" - "$TMP" "$LABELS" "$VAL" <<'PY'
+section=$("$PY" - "$TMP" "$LABELS" "$VAL" <<'PY'
 import datetime, json, sys
 tmp, labels, val = sys.argv[1:4]
 real = {s: json.load(open(f"{tmp}/real_{s}.json")) for s in ("geometric", "learned")}
@@ -54,3 +56,5 @@ print(f"Geometric per pair: {pairs}\n")
 print("Command: `scripts/bench_segmenter.sh` (real pairs: `segloc eval segmenter --labels "
       f"{labels} --segmenter S`; rendered: `scripts/eval_rendered_segmenter.py`).")
 PY
+)
+if [[ $print == 1 ]]; then echo "$section"; else echo "$section" | python3 scripts/bench_section.py segmenter; fi
