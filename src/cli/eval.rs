@@ -97,6 +97,9 @@ pub enum EvalCommand {
     /// Global localization: every LunarLoc traverse (and 60 s submap) against the
     /// ground-truth rock grid, under random rigid transforms, with no prior session.
     Grid(super::eval_grid::GridArgs),
+    /// The perception front end on rendered frames of the synthetic moon against their
+    /// truth: recall, precision and centroid error, by range band and sun elevation.
+    Render(super::eval_render::EvalRenderArgs),
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks {
         /// The data folder holding `lunarloc/` and `lac-groundtruth/`.
@@ -282,6 +285,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
         }
         EvalCommand::Stream(args) => run_stream(args, config),
         EvalCommand::Grid(args) => super::eval_grid::run(args, config),
+        EvalCommand::Render(args) => super::eval_render::run(args),
         EvalCommand::Landmarks { data, json } => {
             let grid = read_grid_csv(&data.join("lac-groundtruth/moon_map_01_preset_1.csv"))?;
             let mut rows = Vec::new();

@@ -5,6 +5,7 @@
 //! - [`grid`]: global localization of traverses and submaps against the rock grid;
 //! - [`merge`]: map merging with traverses as agents;
 //! - [`landmark_quality`]: how well fused landmarks land on the ground-truth rock cells;
+//! - [`render_front_end`]: the perception front end on rendered frames against their truth;
 //! - [`stream`]: traverses replayed frame by frame through the online localizer against
 //!   another traverse's map;
 //! - [`transform_error`]: the error measures.
@@ -13,6 +14,7 @@ pub mod grid;
 pub mod landmark_quality;
 pub mod lunarloc;
 pub mod merge;
+pub mod render_front_end;
 pub mod stream;
 
 use nalgebra::{Isometry3, Point3};
