@@ -6,12 +6,13 @@
 //! 2. shade: the pixel's surface point from its depth, its normal (terrain: interpolated
 //!    vertex normals; rocks: the sphere's), the sun's shadow map ([`super::shadow`]), the
 //!    lunar-Lambert reflectance and the albedo textures;
-//! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits.
+//! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits, each
+//!    pixel as it is shaded (no radiance image).
 
 use super::config::{RenderConfig, RenderError};
 use super::raster::{rasterize, screen_triangles, Projection, Raster, ScreenTriangle};
 use super::scene::{ObjectKind, Scene};
-use super::sensor::expose;
+use super::sensor::Sensor;
 use super::shadow::ShadowMap;
 use crate::perception::{GrayImage, StereoCamera};
 use crate::sim::moon::Moon;
@@ -40,6 +41,7 @@ pub struct Renderer {
     scene: Scene,
     shadow: ShadowMap,
     camera: StereoCamera,
+    sensor: Sensor,
     /// Unit vector toward the sun, world frame.
     sun: Vector3<f64>,
 }
@@ -72,6 +74,7 @@ impl Renderer {
             scene,
             shadow,
             camera,
+            sensor: Sensor::new(config),
             sun: config.sun_direction(),
         })
     }
@@ -113,18 +116,15 @@ impl Renderer {
         let t1 = start.elapsed().as_secs_f64() * 1e3;
         let raster = rasterize(&triangles, c.width, c.height);
         let t2 = start.elapsed().as_secs_f64() * 1e3;
-        let (radiance, depth_m, object) = self.shade(&raster, world_from_camera);
-        let t3 = start.elapsed().as_secs_f64() * 1e3;
         let key = noise_key ^ self.config.noise_seed.wrapping_mul(0x9E37_79B9);
-        let image = expose(&radiance, c.width, c.height, &self.config, key);
+        let (image, depth_m, object) = self.shade(&raster, world_from_camera, key);
         if std::env::var_os("SEGLOC_RENDER_PROFILE").is_some() {
-            let t4 = start.elapsed().as_secs_f64() * 1e3;
+            let t3 = start.elapsed().as_secs_f64() * 1e3;
             eprintln!(
-                "tris {} setup {t1:.1} raster {:.1} shade {:.1} expose {:.1}",
+                "tris {} setup {t1:.1} raster {:.1} shade+expose {:.1}",
                 triangles.len(),
                 t2 - t1,
                 t3 - t2,
-                t4 - t3
             );
         }
         RenderedView {
@@ -136,44 +136,56 @@ impl Renderer {
         }
     }
 
-    /// Per pixel: radiance (relative), depth and object.
+    /// Per pixel: the exposed grey level (noise drawn from `noise_key`), depth and object.
     fn shade(
         &self,
         raster: &Raster,
         world_from_camera: &Isometry3<f64>,
-    ) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
+        noise_key: u64,
+    ) -> (GrayImage, Vec<f32>, Vec<u32>) {
         let (w, h) = (raster.width, raster.height);
-        let mut radiance = vec![0f32; w * h];
+        let mut grey = vec![0u8; w * h];
         let mut depth = vec![0f32; w * h];
         let mut object = vec![u32::MAX; w * h];
         let eye = Point3::from(world_from_camera.translation.vector);
-        radiance
-            .par_chunks_mut(w)
+        let rotation = world_from_camera.rotation.to_rotation_matrix().into_inner();
+        let c = &self.camera;
+        // the world ray of pixel (x, y) at unit depth is row_start(y) + x · step
+        let step: Vector3<f64> = rotation.column(0) / c.fx;
+        grey.par_chunks_mut(w)
             .zip(depth.par_chunks_mut(w))
             .zip(object.par_chunks_mut(w))
             .enumerate()
-            .for_each(|(y, ((rad, dep), obj))| {
+            .for_each(|(y, ((out, dep), obj))| {
+                let row_start = rotation * Vector3::new(-c.cx / c.fx, (y as f64 - c.cy) / c.fy, 1.0);
                 for x in 0..w {
                     let idx = y * w + x;
                     let tri = raster.triangle[idx];
-                    if tri == u32::MAX {
-                        continue;
-                    }
-                    let z = 1.0 / raster.key[idx] as f64;
-                    let p_cam = self.camera.back_project(x as f64, y as f64, z);
-                    let p = world_from_camera * p_cam;
-                    let o = self.scene.triangle_object[tri as usize];
-                    dep[x] = z as f32;
-                    obj[x] = o;
-                    rad[x] = self.radiance(&p, &eye, o, tri) as f32;
+                    let radiance = if tri == u32::MAX {
+                        0.0
+                    } else {
+                        let z = 1.0 / raster.key[idx] as f64;
+                        let ray = row_start + step * x as f64;
+                        let o = self.scene.triangle_object[tri as usize];
+                        dep[x] = z as f32;
+                        obj[x] = o;
+                        self.radiance(&(eye + ray * z), &ray, o, tri)
+                    };
+                    out[x] = self.sensor.grey(radiance, noise_key, idx);
                 }
             });
-        (radiance, depth, object)
+        let image = GrayImage {
+            width: w,
+            height: h,
+            data: grey,
+        };
+        (image, depth, object)
     }
 
-    /// Radiance (relative to a unit-albedo, unit-reflectance surface) leaving `p` toward
-    /// `eye`.
-    fn radiance(&self, p: &Point3<f64>, eye: &Point3<f64>, object: u32, triangle: u32) -> f64 {
+    /// Radiance (relative to a unit-albedo, unit-reflectance surface) leaving `p` back along
+    /// the viewing ray `ray` (any length).
+    #[inline]
+    fn radiance(&self, p: &Point3<f64>, ray: &Vector3<f64>, object: u32, triangle: u32) -> f64 {
         let o = &self.scene.objects[object as usize];
         let (normal, albedo) = match o.kind {
             ObjectKind::Terrain => {
@@ -192,7 +204,7 @@ impl Renderer {
             ObjectKind::Lander => (self.face_normal(triangle), o.albedo),
         };
         let mu0 = normal.dot(&self.sun);
-        let mu = normal.dot(&(eye - p).normalize()).max(1e-3);
+        let mu = (-normal.dot(ray) / ray.norm()).max(1e-3);
         let direct = if mu0 > 0.0 && self.shadow.lit(p, &normal) {
             let l = self.config.lommel_seeliger_weight;
             2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
