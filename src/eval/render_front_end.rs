@@ -270,7 +270,13 @@ pub fn summarize(frames: &[&FrameScore], band: (f64, f64), config: &MatchConfig)
         .collect();
     let mut errors: Vec<f64> = rocks.iter().filter_map(|r| r.error_m).collect();
     errors.sort_by(f64::total_cmp);
-    let ratio = |a: usize, b: usize| if b == 0 { f64::NAN } else { a as f64 / b as f64 };
+    let ratio = |a: usize, b: usize| {
+        if b == 0 {
+            f64::NAN
+        } else {
+            a as f64 / b as f64
+        }
+    };
     let quantile = |q: f64| {
         if errors.is_empty() {
             f64::NAN
@@ -329,8 +335,7 @@ pub fn evaluate_render(
                 ..options.render.clone()
             };
             let renderer = Renderer::new(&moon, &render, seed)?;
-            for (tick, world_from_rover) in poses.iter().enumerate().step_by(options.every_ticks)
-            {
+            for (tick, world_from_rover) in poses.iter().enumerate().step_by(options.every_ticks) {
                 let frame = renderer.render_stereo(world_from_rover, tick as u64);
                 let result = front_end.process(&frame.left, &frame.right)?;
                 let mut score = score_frame(&frame, &result.boulders, &options.matching);
@@ -360,8 +365,8 @@ pub fn drive(
     let min_rock = config.session.collision_min_rock_radius_m;
     let s = config.start_1;
     let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
-    let one = map_session(&moon, &config, [x, y, s[2]], seed.wrapping_mul(2), &Silent)
-        .map_err(err)?;
+    let one =
+        map_session(&moon, &config, [x, y, s[2]], seed.wrapping_mul(2), &Silent).map_err(err)?;
     let poses = one.log.ticks.iter().map(|t| t.world_from_rover).collect();
     Ok((moon, poses))
 }

@@ -10,7 +10,7 @@
 //!    pixel as it is shaded (no radiance image).
 
 use super::config::{RenderConfig, RenderError};
-use super::raster::{rasterize, screen_triangles, Projection, Raster, ScreenTriangle};
+use super::raster::{rasterize_into, screen_triangles, Projection, Raster, ScreenTriangle};
 use super::scene::{ObjectKind, Scene};
 use super::sensor::Sensor;
 use super::shadow::ShadowMap;
@@ -42,6 +42,8 @@ pub struct Renderer {
     shadow: ShadowMap,
     camera: StereoCamera,
     sensor: Sensor,
+    /// Z-buffers of earlier views, reused (one per view drawn at once).
+    rasters: std::sync::Mutex<Vec<Raster>>,
     /// Unit vector toward the sun, world frame.
     sun: Vector3<f64>,
 }
@@ -75,6 +77,7 @@ impl Renderer {
             shadow,
             camera,
             sensor: Sensor::new(config),
+            rasters: std::sync::Mutex::new(Vec::new()),
             sun: config.sun_direction(),
         })
     }
@@ -114,10 +117,14 @@ impl Renderer {
         };
         let triangles = screen_triangles(&self.scene, &projection, c.width, c.height, true);
         let t1 = start.elapsed().as_secs_f64() * 1e3;
-        let raster = rasterize(&triangles, c.width, c.height);
+        let mut raster = self.take_raster();
+        rasterize_into(&triangles, &mut raster);
         let t2 = start.elapsed().as_secs_f64() * 1e3;
         let key = noise_key ^ self.config.noise_seed.wrapping_mul(0x9E37_79B9);
         let (image, depth_m, object) = self.shade(&raster, world_from_camera, key);
+        if let Ok(mut pool) = self.rasters.lock() {
+            pool.push(raster);
+        }
         if std::env::var_os("SEGLOC_RENDER_PROFILE").is_some() {
             let t3 = start.elapsed().as_secs_f64() * 1e3;
             eprintln!(
@@ -134,6 +141,17 @@ impl Renderer {
             triangles,
             time_ms: start.elapsed().as_secs_f64() * 1e3,
         }
+    }
+
+    /// A z-buffer of the image's size from the pool, or a new one.
+    fn take_raster(&self) -> Raster {
+        let reused = self.rasters.lock().ok().and_then(|mut pool| pool.pop());
+        reused.unwrap_or(Raster {
+            width: self.camera.width,
+            height: self.camera.height,
+            key: Vec::new(),
+            triangle: Vec::new(),
+        })
     }
 
     /// Per pixel: the exposed grey level (noise drawn from `noise_key`), depth and object.
@@ -157,7 +175,8 @@ impl Renderer {
             .zip(object.par_chunks_mut(w))
             .enumerate()
             .for_each(|(y, ((out, dep), obj))| {
-                let row_start = rotation * Vector3::new(-c.cx / c.fx, (y as f64 - c.cy) / c.fy, 1.0);
+                let row_start =
+                    rotation * Vector3::new(-c.cx / c.fx, (y as f64 - c.cy) / c.fy, 1.0);
                 for x in 0..w {
                     let idx = y * w + x;
                     let tri = raster.triangle[idx];
