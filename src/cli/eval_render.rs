@@ -21,7 +21,12 @@ pub struct EvalRenderArgs {
     #[arg(long, default_value = "1-10")]
     seeds: String,
     /// Sun elevations, degrees.
-    #[arg(long, value_delimiter = ',', default_value = "5,15,30")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "5,15,30",
+        allow_negative_numbers = true
+    )]
     sun_deg: Vec<f64>,
     /// Seconds of each seed's mapping session.
     #[arg(long, default_value_t = 60.0)]
