@@ -3,17 +3,22 @@
 //!
 //! 1. rasterize ([`super::raster`]): the scene's triangles into a z-buffer of the scene
 //!    triangle per pixel;
-//! 2. shade: the pixel's surface point from its depth, its normal (terrain: interpolated
-//!    vertex normals; rocks: the sphere's), the sun's shadow map ([`super::shadow`]), the
-//!    lunar-Lambert reflectance and the albedo textures;
+//! 2. shade: the pixel's surface point from its depth; on the terrain the sun's side
+//!    (`μ0 · lit`) baked once per renderer ([`super::terrain_light`]) and the viewing angle
+//!    from the triangle's normal; on rocks the sphere's normal and the sun's shadow map
+//!    ([`super::shadow`]); then the lunar-Lambert reflectance and the albedo textures;
 //! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits, each
 //!    pixel as it is shaded (no radiance image).
+//!
+//! What does not change between the frames of one drive (scene, textures, shadow map, the
+//! terrain's sunlight, triangle normals) is built in [`Renderer::new`]; z-buffers are reused.
 
 use super::config::{RenderConfig, RenderError};
 use super::raster::{rasterize_into, screen_triangles, Projection, Raster, ScreenTriangle};
 use super::scene::{ObjectKind, Scene};
 use super::sensor::Sensor;
 use super::shadow::ShadowMap;
+use super::terrain_light::TerrainLight;
 use crate::perception::{GrayImage, StereoCamera};
 use crate::sim::moon::Moon;
 use crate::sim::sensors::cameras;
@@ -40,6 +45,10 @@ pub struct Renderer {
     config: RenderConfig,
     scene: Scene,
     shadow: ShadowMap,
+    /// `μ0 · lit` of the terrain, baked from the shadow map.
+    terrain_light: TerrainLight,
+    /// Unit normal of every scene triangle (terrain: for the viewing angle only).
+    face_normals: Vec<[f32; 3]>,
     camera: StereoCamera,
     sensor: Sensor,
     /// Z-buffers of earlier views, reused (one per view drawn at once).
@@ -71,10 +80,18 @@ impl Renderer {
         let shadow = ShadowMap::build(&scene, config.sun_direction(), config.shadow_texel_m);
         let (w, h) = (config.width(), config.height());
         let camera = StereoCamera::ipex().scaled(config.resolution_scale, w, h);
+        let sun = config.sun_direction();
+        let terrain_light = TerrainLight::bake(&scene, &shadow, &sun, TERRAIN_LIGHT_TEXEL_M);
+        let face_normals = (0..scene.triangles.len())
+            .into_par_iter()
+            .map(|t| face_normal(&scene, t as u32).map(|c| c as f32))
+            .collect();
         Ok(Renderer {
             config: config.clone(),
             scene,
             shadow,
+            terrain_light,
+            face_normals,
             camera,
             sensor: Sensor::new(config),
             rasters: std::sync::Mutex::new(Vec::new()),
@@ -206,10 +223,21 @@ impl Renderer {
     #[inline]
     fn radiance(&self, p: &Point3<f64>, ray: &Vector3<f64>, object: u32, triangle: u32) -> f64 {
         let o = &self.scene.objects[object as usize];
+        let l = self.config.lommel_seeliger_weight;
+        let view_cos = |n: &Vector3<f64>| (-n.dot(ray) / ray.norm()).max(1e-3);
         let (normal, albedo) = match o.kind {
             ObjectKind::Terrain => {
-                let n = self.scene.terrain_normal(p.x, p.y);
-                (Vector3::from(n), self.scene.terrain_albedo(p.x, p.y))
+                // the sun's side baked (smooth normal, shadow map); the viewing angle from
+                // the triangle's own normal
+                let mu0 = self.terrain_light.at(p.x, p.y);
+                let f = self.face_normals[triangle as usize];
+                let mu = view_cos(&Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64));
+                let direct = if mu0 > 0.0 {
+                    2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
+                } else {
+                    0.0
+                };
+                return self.scene.terrain_albedo(p.x, p.y) * (direct + self.config.ambient);
             }
             ObjectKind::Rock(_) | ObjectKind::Pebble => {
                 let d = Vector3::new(
@@ -220,22 +248,33 @@ impl Renderer {
                 let grain = self.scene.fine_detail(p.x + 0.37 * p.z, p.y - 0.61 * p.z);
                 (d.normalize(), o.albedo * grain)
             }
-            ObjectKind::Lander => (self.face_normal(triangle), o.albedo),
+            ObjectKind::Lander => {
+                let f = self.face_normals[triangle as usize];
+                (
+                    Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64),
+                    o.albedo,
+                )
+            }
         };
         let mu0 = normal.dot(&self.sun);
-        let mu = (-normal.dot(ray) / ray.norm()).max(1e-3);
+        let mu = view_cos(&normal);
         let direct = if mu0 > 0.0 && self.shadow.lit(p, &normal) {
-            let l = self.config.lommel_seeliger_weight;
             2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
         } else {
             0.0
         };
         albedo * (direct + self.config.ambient)
     }
+}
 
-    fn face_normal(&self, triangle: u32) -> Vector3<f64> {
-        let t = self.scene.triangles[triangle as usize];
-        let v = t.map(|k| Vector3::from(self.scene.vertices[k as usize]));
-        (v[1] - v[0]).cross(&(v[2] - v[0])).normalize()
-    }
+/// Texel of the baked terrain sunlight, metres.
+const TERRAIN_LIGHT_TEXEL_M: f64 = 0.01;
+
+/// Unit normal of a scene triangle (counter-clockwise seen from outside).
+fn face_normal(scene: &Scene, triangle: u32) -> [f64; 3] {
+    let t = scene.triangles[triangle as usize];
+    let v = t.map(|k| Vector3::from(scene.vertices[k as usize]));
+    let n = (v[1] - v[0]).cross(&(v[2] - v[0]));
+    let n = n / n.norm().max(1e-300);
+    [n.x, n.y, n.z]
 }

@@ -377,6 +377,29 @@ impl Scene {
         [out[0] / norm, out[1] / norm, out[2] / norm]
     }
 
+    /// Half the side of the terrain mesh, metres.
+    pub fn terrain_half_extent_m(&self) -> f64 {
+        (self.terrain_n - 1) as f64 * self.terrain_spacing_m / 2.0
+    }
+
+    /// Height of the terrain mesh at (x, y) (its triangles, split as the ray casts split
+    /// the cells), clamped to the mesh.
+    pub fn terrain_height(&self, x: f64, y: f64) -> f64 {
+        let n = self.terrain_n;
+        let half = self.terrain_half_extent_m();
+        let max = (n - 1) as f64 - 1e-9;
+        let u = ((x + half) / self.terrain_spacing_m).clamp(0.0, max);
+        let v = ((y + half) / self.terrain_spacing_m).clamp(0.0, max);
+        let (i, j) = (u as usize, v as usize);
+        let (tx, ty) = (u - i as f64, v - j as f64);
+        let h = |di: usize, dj: usize| self.vertices[(j + dj) * n + i + di][2];
+        if tx + ty <= 1.0 {
+            h(0, 0) + tx * (h(1, 0) - h(0, 0)) + ty * (h(0, 1) - h(0, 0))
+        } else {
+            h(1, 1) + (1.0 - tx) * (h(0, 1) - h(1, 1)) + (1.0 - ty) * (h(1, 0) - h(1, 1))
+        }
+    }
+
     /// Number of the moon's rocks in the scene.
     pub fn rock_count(&self) -> usize {
         self.objects
