@@ -115,3 +115,39 @@ fn refuses_bad_input_and_writes_nothing() {
     );
     assert!(!fresh.exists());
 }
+
+/// `segloc eval render` on one half-resolution frame: the JSON has the documented blocks,
+/// and a sun below the horizon is refused naming the field.
+#[test]
+fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
+    let run = segloc()
+        .args(["eval", "render", "--seeds", "3", "--sun-deg", "15"])
+        .args(["--seconds", "2", "--every", "100", "--half", "--json"])
+        .output()
+        .unwrap();
+    assert_success(&run);
+    let v: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(v["overall"]["frames"], 1);
+    for key in ["recall", "precision", "centroid_error_median_m"] {
+        assert!(v["overall"].get(key).is_some(), "{key}: {v}");
+    }
+    assert_eq!(v["by_range"].as_array().map(Vec::len), Some(3));
+    let run = segloc()
+        .args([
+            "eval",
+            "render",
+            "--seeds",
+            "3",
+            "--sun-deg",
+            "-2",
+            "--half",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(
+        stderr_of(&run).contains("sun_elevation_deg"),
+        "{}",
+        stderr_of(&run)
+    );
+}

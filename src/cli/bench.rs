@@ -32,6 +32,9 @@ pub enum BenchCommand {
     /// The perception front end in steady state: one process, one front end reused for
     /// every frame; median / p90 / min per pair and per stage.
     Detect(super::bench_detect::BenchDetectArgs),
+    /// The renderer in steady state: stereo pairs along mapping drives of held-out seeds;
+    /// median / p90 wall and CPU time a pair.
+    Render(super::bench_render::BenchRenderArgs),
 }
 
 /// Run a benchmark.
@@ -44,6 +47,7 @@ pub fn run(cmd: &BenchCommand, config: &RelocalizeConfig) -> Result<i32> {
             json,
         } => (problem, repeat, threads, json),
         BenchCommand::Detect(args) => return super::bench_detect::run(args),
+        BenchCommand::Render(args) => return super::bench_render::run(args),
     };
     let p = read_problem(problem)?;
     let mut builder = rayon::ThreadPoolBuilder::new();

@@ -238,7 +238,7 @@ fn file_stem(path: &Path) -> String {
 
 /// User + system CPU time of the whole process so far (all threads), milliseconds: with
 /// other work on the machine this says what a frame costs, whatever the wall clock says.
-fn process_cpu_ms() -> f64 {
+pub(super) fn process_cpu_ms() -> f64 {
     let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
     // SAFETY: getrusage fills the struct it is given; on failure we read the zeroed struct.
     let usage = unsafe {

@@ -1,4 +1,4 @@
-//! `segloc eval lunarloc|merge|landmarks|stream|segmenter`.
+//! `segloc eval lunarloc|merge|landmarks|stream|segmenter|render`.
 
 use super::print_json;
 use super::relocalize::parse_dof;
@@ -38,6 +38,9 @@ pub enum EvalCommand {
     Grid(super::eval_grid::GridArgs),
     /// A segmenter's recall and precision on the real LAC pairs against hand labels.
     Segmenter(super::eval_segmenter::EvalSegmenterArgs),
+    /// The perception front end on rendered frames of the synthetic moon against their
+    /// truth: recall, precision and centroid error, by range band and sun elevation.
+    Render(super::eval_render::EvalRenderArgs),
     /// How fused landmarks fall on the ground-truth rock cells, per traverse.
     Landmarks(LandmarksArgs),
 }
@@ -164,6 +167,7 @@ pub fn run(cmd: &EvalCommand, config: &RelocalizeConfig) -> Result<i32> {
         EvalCommand::Stream(args) => run_stream(args, config),
         EvalCommand::Grid(args) => super::eval_grid::run(args, config),
         EvalCommand::Segmenter(args) => super::eval_segmenter::run(args),
+        EvalCommand::Render(args) => super::eval_render::run(args),
         EvalCommand::Landmarks(args) => run_landmarks(args, config),
     }
 }

@@ -2,11 +2,13 @@
 
 mod bench;
 mod bench_detect;
+mod bench_render;
 mod config;
 mod demo;
 mod detect;
 mod eval;
 mod eval_grid;
+mod eval_render;
 mod eval_segmenter;
 mod graph;
 mod graph_stereo;

@@ -18,6 +18,7 @@ pub mod renderer;
 pub mod scene;
 pub mod sensor;
 pub mod shadow;
+pub mod terrain_light;
 pub mod truth;
 
 pub use config::{RenderConfig, RenderError};

@@ -258,6 +258,20 @@ fn setup(v: [[f64; 3]; 3], triangle: u32, w: f64, h: f64) -> Option<ScreenTriang
 
 /// Draw `triangles` into a `width × height` z-buffer, bands of rows in parallel.
 pub fn rasterize(triangles: &[ScreenTriangle], width: usize, height: usize) -> Raster {
+    let mut raster = Raster {
+        width,
+        height,
+        key: Vec::new(),
+        triangle: Vec::new(),
+    };
+    rasterize_into(triangles, &mut raster);
+    raster
+}
+
+/// Draw `triangles` into `raster` (its size kept, its buffers cleared and reused: no fresh
+/// pages to fault in per frame).
+pub fn rasterize_into(triangles: &[ScreenTriangle], raster: &mut Raster) {
+    let (width, height) = (raster.width, raster.height);
     let bands = height.div_ceil(BAND_ROWS);
     let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
     for (i, t) in triangles.iter().enumerate() {
@@ -275,10 +289,14 @@ pub fn rasterize(triangles: &[ScreenTriangle], width: usize, height: usize) -> R
             bin.push(i as u32);
         }
     }
-    let mut key = vec![f32::NEG_INFINITY; width * height];
-    let mut triangle = vec![u32::MAX; width * height];
-    key.par_chunks_mut(BAND_ROWS * width)
-        .zip(triangle.par_chunks_mut(BAND_ROWS * width))
+    raster.key.clear();
+    raster.key.resize(width * height, f32::NEG_INFINITY);
+    raster.triangle.clear();
+    raster.triangle.resize(width * height, u32::MAX);
+    raster
+        .key
+        .par_chunks_mut(BAND_ROWS * width)
+        .zip(raster.triangle.par_chunks_mut(BAND_ROWS * width))
         .zip(bins.par_iter())
         .enumerate()
         .for_each(|(band, ((keys, ids), bin))| {
@@ -288,12 +306,6 @@ pub fn rasterize(triangles: &[ScreenTriangle], width: usize, height: usize) -> R
                 draw(t, width, rows.clone(), keys, ids);
             }
         });
-    Raster {
-        width,
-        height,
-        key,
-        triangle,
-    }
 }
 
 /// Count the pixels a set of triangles covers in a `width × height` image (no z-buffer).

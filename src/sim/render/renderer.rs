@@ -3,16 +3,22 @@
 //!
 //! 1. rasterize ([`super::raster`]): the scene's triangles into a z-buffer of the scene
 //!    triangle per pixel;
-//! 2. shade: the pixel's surface point from its depth, its normal (terrain: interpolated
-//!    vertex normals; rocks: the sphere's), the sun's shadow map ([`super::shadow`]), the
-//!    lunar-Lambert reflectance and the albedo textures;
-//! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits.
+//! 2. shade: the pixel's surface point from its depth; on the terrain the sun's side
+//!    (`μ0 · lit`) baked once per renderer ([`super::terrain_light`]) and the viewing angle
+//!    from the triangle's normal; on rocks the sphere's normal and the sun's shadow map
+//!    ([`super::shadow`]); then the lunar-Lambert reflectance and the albedo textures;
+//! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits, each
+//!    pixel as it is shaded (no radiance image).
+//!
+//! What does not change between the frames of one drive (scene, textures, shadow map, the
+//! terrain's sunlight, triangle normals) is built in [`Renderer::new`]; z-buffers are reused.
 
 use super::config::{RenderConfig, RenderError};
-use super::raster::{rasterize, screen_triangles, Projection, Raster, ScreenTriangle};
+use super::raster::{rasterize_into, screen_triangles, Projection, Raster, ScreenTriangle};
 use super::scene::{ObjectKind, Scene};
-use super::sensor::expose;
+use super::sensor::Sensor;
 use super::shadow::ShadowMap;
+use super::terrain_light::TerrainLight;
 use crate::perception::{GrayImage, StereoCamera};
 use crate::sim::moon::Moon;
 use crate::sim::sensors::cameras;
@@ -39,7 +45,14 @@ pub struct Renderer {
     config: RenderConfig,
     scene: Scene,
     shadow: ShadowMap,
+    /// `μ0 · lit` of the terrain, baked from the shadow map.
+    terrain_light: TerrainLight,
+    /// Unit normal of every scene triangle (terrain: for the viewing angle only).
+    face_normals: Vec<[f32; 3]>,
     camera: StereoCamera,
+    sensor: Sensor,
+    /// Z-buffers of earlier views, reused (one per view drawn at once).
+    rasters: std::sync::Mutex<Vec<Raster>>,
     /// Unit vector toward the sun, world frame.
     sun: Vector3<f64>,
 }
@@ -67,11 +80,21 @@ impl Renderer {
         let shadow = ShadowMap::build(&scene, config.sun_direction(), config.shadow_texel_m);
         let (w, h) = (config.width(), config.height());
         let camera = StereoCamera::ipex().scaled(config.resolution_scale, w, h);
+        let sun = config.sun_direction();
+        let terrain_light = TerrainLight::bake(&scene, &shadow, &sun, TERRAIN_LIGHT_TEXEL_M);
+        let face_normals = (0..scene.triangles.len())
+            .into_par_iter()
+            .map(|t| face_normal(&scene, t as u32).map(|c| c as f32))
+            .collect();
         Ok(Renderer {
             config: config.clone(),
             scene,
             shadow,
+            terrain_light,
+            face_normals,
             camera,
+            sensor: Sensor::new(config),
+            rasters: std::sync::Mutex::new(Vec::new()),
             sun: config.sun_direction(),
         })
     }
@@ -111,20 +134,21 @@ impl Renderer {
         };
         let triangles = screen_triangles(&self.scene, &projection, c.width, c.height, true);
         let t1 = start.elapsed().as_secs_f64() * 1e3;
-        let raster = rasterize(&triangles, c.width, c.height);
+        let mut raster = self.take_raster();
+        rasterize_into(&triangles, &mut raster);
         let t2 = start.elapsed().as_secs_f64() * 1e3;
-        let (radiance, depth_m, object) = self.shade(&raster, world_from_camera);
-        let t3 = start.elapsed().as_secs_f64() * 1e3;
         let key = noise_key ^ self.config.noise_seed.wrapping_mul(0x9E37_79B9);
-        let image = expose(&radiance, c.width, c.height, &self.config, key);
+        let (image, depth_m, object) = self.shade(&raster, world_from_camera, key);
+        if let Ok(mut pool) = self.rasters.lock() {
+            pool.push(raster);
+        }
         if std::env::var_os("SEGLOC_RENDER_PROFILE").is_some() {
-            let t4 = start.elapsed().as_secs_f64() * 1e3;
+            let t3 = start.elapsed().as_secs_f64() * 1e3;
             eprintln!(
-                "tris {} setup {t1:.1} raster {:.1} shade {:.1} expose {:.1}",
+                "tris {} setup {t1:.1} raster {:.1} shade+expose {:.1}",
                 triangles.len(),
                 t2 - t1,
                 t3 - t2,
-                t4 - t3
             );
         }
         RenderedView {
@@ -136,49 +160,84 @@ impl Renderer {
         }
     }
 
-    /// Per pixel: radiance (relative), depth and object.
+    /// A z-buffer of the image's size from the pool, or a new one.
+    fn take_raster(&self) -> Raster {
+        let reused = self.rasters.lock().ok().and_then(|mut pool| pool.pop());
+        reused.unwrap_or(Raster {
+            width: self.camera.width,
+            height: self.camera.height,
+            key: Vec::new(),
+            triangle: Vec::new(),
+        })
+    }
+
+    /// Per pixel: the exposed grey level (noise drawn from `noise_key`), depth and object.
     fn shade(
         &self,
         raster: &Raster,
         world_from_camera: &Isometry3<f64>,
-    ) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
+        noise_key: u64,
+    ) -> (GrayImage, Vec<f32>, Vec<u32>) {
         let (w, h) = (raster.width, raster.height);
-        let mut radiance = vec![0f32; w * h];
+        let mut grey = vec![0u8; w * h];
         let mut depth = vec![0f32; w * h];
         let mut object = vec![u32::MAX; w * h];
         let eye = Point3::from(world_from_camera.translation.vector);
-        radiance
-            .par_chunks_mut(w)
+        let rotation = world_from_camera.rotation.to_rotation_matrix().into_inner();
+        let c = &self.camera;
+        // the world ray of pixel (x, y) at unit depth is row_start(y) + x · step
+        let step: Vector3<f64> = rotation.column(0) / c.fx;
+        grey.par_chunks_mut(w)
             .zip(depth.par_chunks_mut(w))
             .zip(object.par_chunks_mut(w))
             .enumerate()
-            .for_each(|(y, ((rad, dep), obj))| {
+            .for_each(|(y, ((out, dep), obj))| {
+                let row_start =
+                    rotation * Vector3::new(-c.cx / c.fx, (y as f64 - c.cy) / c.fy, 1.0);
                 for x in 0..w {
                     let idx = y * w + x;
                     let tri = raster.triangle[idx];
-                    if tri == u32::MAX {
-                        continue;
-                    }
-                    let z = 1.0 / raster.key[idx] as f64;
-                    let p_cam = self.camera.back_project(x as f64, y as f64, z);
-                    let p = world_from_camera * p_cam;
-                    let o = self.scene.triangle_object[tri as usize];
-                    dep[x] = z as f32;
-                    obj[x] = o;
-                    rad[x] = self.radiance(&p, &eye, o, tri) as f32;
+                    let radiance = if tri == u32::MAX {
+                        0.0
+                    } else {
+                        let z = 1.0 / raster.key[idx] as f64;
+                        let ray = row_start + step * x as f64;
+                        let o = self.scene.triangle_object[tri as usize];
+                        dep[x] = z as f32;
+                        obj[x] = o;
+                        self.radiance(&(eye + ray * z), &ray, o, tri)
+                    };
+                    out[x] = self.sensor.grey(radiance, noise_key, idx);
                 }
             });
-        (radiance, depth, object)
+        let image = GrayImage {
+            width: w,
+            height: h,
+            data: grey,
+        };
+        (image, depth, object)
     }
 
-    /// Radiance (relative to a unit-albedo, unit-reflectance surface) leaving `p` toward
-    /// `eye`.
-    fn radiance(&self, p: &Point3<f64>, eye: &Point3<f64>, object: u32, triangle: u32) -> f64 {
+    /// Radiance (relative to a unit-albedo, unit-reflectance surface) leaving `p` back along
+    /// the viewing ray `ray` (any length).
+    #[inline]
+    fn radiance(&self, p: &Point3<f64>, ray: &Vector3<f64>, object: u32, triangle: u32) -> f64 {
         let o = &self.scene.objects[object as usize];
+        let l = self.config.lommel_seeliger_weight;
+        let view_cos = |n: &Vector3<f64>| (-n.dot(ray) / ray.norm()).max(1e-3);
         let (normal, albedo) = match o.kind {
             ObjectKind::Terrain => {
-                let n = self.scene.terrain_normal(p.x, p.y);
-                (Vector3::from(n), self.scene.terrain_albedo(p.x, p.y))
+                // the sun's side baked (smooth normal, shadow map); the viewing angle from
+                // the triangle's own normal
+                let mu0 = self.terrain_light.at(p.x, p.y);
+                let f = self.face_normals[triangle as usize];
+                let mu = view_cos(&Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64));
+                let direct = if mu0 > 0.0 {
+                    2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
+                } else {
+                    0.0
+                };
+                return self.scene.terrain_albedo(p.x, p.y) * (direct + self.config.ambient);
             }
             ObjectKind::Rock(_) | ObjectKind::Pebble => {
                 let d = Vector3::new(
@@ -189,22 +248,33 @@ impl Renderer {
                 let grain = self.scene.fine_detail(p.x + 0.37 * p.z, p.y - 0.61 * p.z);
                 (d.normalize(), o.albedo * grain)
             }
-            ObjectKind::Lander => (self.face_normal(triangle), o.albedo),
+            ObjectKind::Lander => {
+                let f = self.face_normals[triangle as usize];
+                (
+                    Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64),
+                    o.albedo,
+                )
+            }
         };
         let mu0 = normal.dot(&self.sun);
-        let mu = normal.dot(&(eye - p).normalize()).max(1e-3);
+        let mu = view_cos(&normal);
         let direct = if mu0 > 0.0 && self.shadow.lit(p, &normal) {
-            let l = self.config.lommel_seeliger_weight;
             2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
         } else {
             0.0
         };
         albedo * (direct + self.config.ambient)
     }
+}
 
-    fn face_normal(&self, triangle: u32) -> Vector3<f64> {
-        let t = self.scene.triangles[triangle as usize];
-        let v = t.map(|k| Vector3::from(self.scene.vertices[k as usize]));
-        (v[1] - v[0]).cross(&(v[2] - v[0])).normalize()
-    }
+/// Texel of the baked terrain sunlight, metres.
+const TERRAIN_LIGHT_TEXEL_M: f64 = 0.01;
+
+/// Unit normal of a scene triangle (counter-clockwise seen from outside).
+fn face_normal(scene: &Scene, triangle: u32) -> [f64; 3] {
+    let t = scene.triangles[triangle as usize];
+    let v = t.map(|k| Vector3::from(scene.vertices[k as usize]));
+    let n = (v[1] - v[0]).cross(&(v[2] - v[0]));
+    let n = n / n.norm().max(1e-300);
+    [n.x, n.y, n.z]
 }

@@ -47,8 +47,9 @@ pub const LANDER_OBJECT: u32 = 1;
 /// Object index of rock 0; rock `i` is `FIRST_ROCK_OBJECT + i`.
 pub const FIRST_ROCK_OBJECT: u32 = 2;
 
-/// Side of the fine albedo tile, texels (tileable).
+/// Side of the fine albedo tile, texels (tileable; a power of two, wrapped by a mask).
 const FINE_TEXELS: usize = 512;
+const _: () = assert!(FINE_TEXELS.is_power_of_two());
 /// Texel of the fine albedo tile, metres.
 const FINE_TEXEL_M: f64 = 0.002;
 /// Texel of the site-wide albedo texture, metres.
@@ -327,6 +328,7 @@ impl Scene {
     }
 
     /// Regolith albedo at (x, y): the site texture times the fine tile.
+    #[inline]
     pub fn terrain_albedo(&self, x: f64, y: f64) -> f64 {
         let n = self.coarse_n;
         let u = ((x + self.half_m) / COARSE_TEXEL_M).clamp(0.0, (n - 2) as f64);
@@ -335,13 +337,18 @@ impl Scene {
     }
 
     /// The fine tile's factor at (x, y) (also the grain of rocks).
+    #[inline]
     pub fn fine_detail(&self, x: f64, y: f64) -> f64 {
-        let m = FINE_TEXELS as f64;
-        let u = (x / FINE_TEXEL_M).rem_euclid(m);
-        let v = (y / FINE_TEXEL_M).rem_euclid(m);
-        let (i0, j0) = (u as usize % FINE_TEXELS, v as usize % FINE_TEXELS);
-        let (i1, j1) = ((i0 + 1) % FINE_TEXELS, (j0 + 1) % FINE_TEXELS);
-        let (tu, tv) = (u - u.floor(), v - v.floor());
+        // shifted by a whole number of tiles so that truncation is the floor (no libm call
+        // nor fmod per pixel) within ±2 km of the origin
+        const SHIFT: f64 = (FINE_TEXELS * 1024) as f64;
+        const MASK: usize = FINE_TEXELS - 1;
+        let u = (x * (1.0 / FINE_TEXEL_M) + SHIFT).max(0.0);
+        let v = (y * (1.0 / FINE_TEXEL_M) + SHIFT).max(0.0);
+        let (iu, iv) = (u as usize, v as usize);
+        let (tu, tv) = (u - iu as f64, v - iv as f64);
+        let (i0, j0) = (iu & MASK, iv & MASK);
+        let (i1, j1) = ((iu + 1) & MASK, (iv + 1) & MASK);
         let t = |i: usize, j: usize| self.fine_albedo[j * FINE_TEXELS + i] as f64;
         let a = t(i0, j0) + tu * (t(i1, j0) - t(i0, j0));
         let b = t(i0, j1) + tu * (t(i1, j1) - t(i0, j1));
@@ -349,6 +356,7 @@ impl Scene {
     }
 
     /// Terrain normal at (x, y): the vertex normals interpolated bilinearly.
+    #[inline]
     pub fn terrain_normal(&self, x: f64, y: f64) -> [f64; 3] {
         let n = self.terrain_n;
         let max = (n - 1) as f64 - 1e-9;
@@ -367,6 +375,29 @@ impl Scene {
         }
         let norm = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
         [out[0] / norm, out[1] / norm, out[2] / norm]
+    }
+
+    /// Half the side of the terrain mesh, metres.
+    pub fn terrain_half_extent_m(&self) -> f64 {
+        (self.terrain_n - 1) as f64 * self.terrain_spacing_m / 2.0
+    }
+
+    /// Height of the terrain mesh at (x, y) (its triangles, split as the ray casts split
+    /// the cells), clamped to the mesh.
+    pub fn terrain_height(&self, x: f64, y: f64) -> f64 {
+        let n = self.terrain_n;
+        let half = self.terrain_half_extent_m();
+        let max = (n - 1) as f64 - 1e-9;
+        let u = ((x + half) / self.terrain_spacing_m).clamp(0.0, max);
+        let v = ((y + half) / self.terrain_spacing_m).clamp(0.0, max);
+        let (i, j) = (u as usize, v as usize);
+        let (tx, ty) = (u - i as f64, v - j as f64);
+        let h = |di: usize, dj: usize| self.vertices[(j + dj) * n + i + di][2];
+        if tx + ty <= 1.0 {
+            h(0, 0) + tx * (h(1, 0) - h(0, 0)) + ty * (h(0, 1) - h(0, 0))
+        } else {
+            h(1, 1) + (1.0 - tx) * (h(0, 1) - h(1, 1)) + (1.0 - ty) * (h(1, 0) - h(1, 1))
+        }
     }
 
     /// Number of the moon's rocks in the scene.
