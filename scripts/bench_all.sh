@@ -38,6 +38,7 @@ sections=(
   "perception|scripts/bench_perception.sh $(q --quick)"
   "segmenter|scripts/bench_segmenter.sh"
   "render|scripts/bench_render.sh $(q 11)"
+  "render-eval|scripts/bench_render_eval.sh"
   "sim|scripts/bench_sim.sh $(q --quick)"
   "mission|scripts/bench_mission.sh $(q --quick)"
   "fuzz|scripts/fuzz.sh --write --cases $(q 2000 20000)"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Renderer speed and the perception front end on rendered frames against their truth.
-# Prints a short markdown section (it does not edit BENCHMARKS.md).
+# Writes the section "render-eval" of BENCHMARKS.md (PRINT=1: prints it instead).
 #
 #  1. `segloc bench render` (held-out seeds 11-14, 6 pairs each = 24 stereo pairs at
 #     1280 x 720, one renderer per seed): wall and CPU ms a pair, median and p90; with
@@ -24,7 +24,7 @@ for s in 11 12 13 14; do
   fi
 done
 "$BIN" eval render --seeds 1-10 --sun-deg 5,15,30 --json >"$TMP/eval.json"
-python3 - "$TMP" <<'PY'
+section=$(python3 - "$TMP" <<'PY'
 import datetime, glob, json, statistics, subprocess, sys
 tmp = sys.argv[1]
 def runs(kind):
@@ -35,7 +35,7 @@ def pooled(rs, key, stat):
 new, old = runs("new"), runs("old")
 ev = json.load(open(f"{tmp}/eval.json"))
 sh = lambda c: subprocess.run(["sh", "-c", c], capture_output=True, text=True).stdout.strip()
-print("## Renderer speed and the front end on rendered frames (render2)\n")
+print("## Renderer speed and the front end on rendered frames\n")
 print(f"`scripts/bench_render_eval.sh` — {datetime.date.today()}, AMD EPYC, 2 cores, commit `{sh('git rev-parse --short HEAD')}`, "
       f"load average {' '.join(new[-1]['load_average'])} (shared machine: wall times are noisy, CPU times less so).\n")
 pairs = sum(r["pairs"] for r in new)
@@ -63,3 +63,5 @@ print(f"\nTargets: recall ≥ 0.9 {met(o['recall'] >= 0.9)}, precision ≥ 0.9 {
       f"centroid median ≤ 2 cm {met(o['centroid_error_median_m'] <= 0.02)}. "
       f"Front end {ev['front_end_ms']['median']:.0f} ms median a pair.")
 PY
+)
+if [[ "${PRINT:-0}" == 1 ]]; then echo "$section"; else echo "$section" | python3 scripts/bench_section.py render-eval; fi
