@@ -79,14 +79,7 @@ fn parse_seeds(text: &str) -> Result<Vec<u64>> {
 /// Run `segloc eval render`.
 pub fn run(args: &EvalRenderArgs) -> Result<i32> {
     let seeds = parse_seeds(&args.seeds)?;
-    let mut render = match &args.render_config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            toml::from_str(&text).with_context(|| format!("{}", path.display()))?
-        }
-        None => RenderConfig::default(),
-    };
+    let mut render = super::sim_render::load_render_config(args.render_config.as_deref())?;
     if args.half {
         render.resolution_scale = 0.5;
     }

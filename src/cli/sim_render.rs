@@ -62,16 +62,19 @@ pub struct RenderArgs {
     sun_azimuth: Option<f64>,
 }
 
+/// The renderer's settings from a TOML file, or the defaults.
+pub(super) fn load_render_config(path: Option<&Path>) -> Result<RenderConfig> {
+    let Some(path) = path else {
+        return Ok(RenderConfig::default());
+    };
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("{}", path.display()))
+}
+
 /// The renderer's settings from the arguments.
 fn render_config(args: &RenderArgs) -> Result<RenderConfig> {
-    let mut config = match &args.render_config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            toml::from_str(&text).with_context(|| format!("{}", path.display()))?
-        }
-        None => RenderConfig::default(),
-    };
+    let mut config = load_render_config(args.render_config.as_deref())?;
     if args.half {
         config.resolution_scale = 0.5;
     }

@@ -146,6 +146,19 @@ pub fn write_gray_png(image: &GrayImage, path: &Path) -> Result<(), PerceptionEr
     std::fs::write(path, bytes).map_err(|e| PerceptionError::io(path, e))
 }
 
+/// The 4-connected neighbours of pixel `i` (row-major index) in a `w` × `h` image.
+pub(crate) fn neighbours4(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (i % w, i / w);
+    [
+        (x > 0).then(|| i - 1),
+        (x + 1 < w).then(|| i + 1),
+        (y > 0).then(|| i - w),
+        (y + 1 < h).then(|| i + w),
+    ]
+    .into_iter()
+    .flatten()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

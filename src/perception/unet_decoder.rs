@@ -13,6 +13,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Mask, PerceptionError};
+use crate::perception::gray_image::neighbours4;
 
 /// Settings of the decoder.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -139,24 +140,11 @@ fn components(classes: &[u8], w: usize, h: usize) -> Vec<u32> {
         label[start] = next;
         stack.push(start);
         while let Some(i) = stack.pop() {
-            let (x, y) = (i % w, i / w);
-            let mut visit = |j: usize| {
+            for j in neighbours4(i, w, h) {
                 if classes[j] == ROCK && label[j] == 0 {
                     label[j] = next;
                     stack.push(j);
                 }
-            };
-            if x > 0 {
-                visit(i - 1);
-            }
-            if x + 1 < w {
-                visit(i + 1);
-            }
-            if y > 0 {
-                visit(i - w);
-            }
-            if y + 1 < h {
-                visit(i + w);
             }
         }
     }

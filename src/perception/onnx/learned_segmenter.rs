@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use ort::session::Session;
 use ort::value::{Tensor, ValueType};
 
-use super::runtime::environment;
+use super::runtime::load_session;
 use crate::perception::segmenter::{SegmentInput, Segmenter};
 use crate::perception::unet_decoder::{decode_unet, UnetDecoderConfig};
 use crate::perception::{GrayImage, Mask, PerceptionError};
@@ -72,13 +72,7 @@ impl LearnedSegmenter {
     /// name the file and say what was expected and found.
     pub fn load(path: &Path, config: UnetDecoderConfig) -> Result<Self, PerceptionError> {
         config.validate()?;
-        if !path.is_file() {
-            return Err(PerceptionError::model(path, "model file not found"));
-        }
-        let env = environment()?;
-        let session = Session::builder(env)
-            .and_then(|mut b| b.commit_from_file(path))
-            .map_err(|e| PerceptionError::model(path, format!("cannot load the model: {e}")))?;
+        let session = load_session(path)?;
         let found = |what: &str| {
             PerceptionError::model(
                 path,

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use ort::session::Session;
 use ort::value::{Tensor, ValueType};
 
-use super::runtime::environment;
+use super::runtime::load_session;
 use super::yolo_seg::{decode_yolo_seg, Letterbox, YoloSegConfig};
 use crate::perception::segmenter::{SegmentInput, Segmenter};
 use crate::perception::{GrayImage, Mask, PerceptionError};
@@ -22,13 +22,7 @@ impl OnnxSegmenter {
     /// Load a model. Errors name the file: missing, not an ONNX model, or with inputs and
     /// outputs that do not fit the format (one image input `[1, 3, S, S]`, two outputs).
     pub fn load(path: &Path, config: YoloSegConfig) -> Result<Self, PerceptionError> {
-        if !path.is_file() {
-            return Err(PerceptionError::model(path, "model file not found"));
-        }
-        let env = environment()?;
-        let session = Session::builder(env)
-            .and_then(|mut b| b.commit_from_file(path))
-            .map_err(|e| PerceptionError::model(path, format!("cannot load the model: {e}")))?;
+        let session = load_session(path)?;
         if session.inputs().len() != 1 || session.outputs().len() < 2 {
             return Err(PerceptionError::model(
                 path,

@@ -66,6 +66,18 @@ pub fn environment() -> Result<&'static Environment, PerceptionError> {
         .map_err(|m| PerceptionError::Runtime(m.trim_start_matches("ONNX Runtime: ").to_string()))
 }
 
+/// An ONNX session of the model at `path`; errors name the file (missing, or not a model
+/// this runtime can load).
+pub fn load_session(path: &std::path::Path) -> Result<ort::session::Session, PerceptionError> {
+    if !path.is_file() {
+        return Err(PerceptionError::model(path, "model file not found"));
+    }
+    let env = environment()?;
+    ort::session::Session::builder(env)
+        .and_then(|mut b| b.commit_from_file(path))
+        .map_err(|e| PerceptionError::model(path, format!("cannot load the model: {e}")))
+}
+
 /// Whether the library can be loaded (for tests that need it).
 pub fn runtime_available() -> bool {
     environment().is_ok()

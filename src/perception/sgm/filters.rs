@@ -2,6 +2,7 @@
 //! small isolated patches of disparity (speckles).
 
 use super::GrayImage;
+use crate::perception::gray_image::neighbours4;
 
 /// Pixels whose 7 × 7 intensity standard deviation is at least `min_std`.
 pub(super) fn texture_mask(image: &GrayImage, min_std: f32, out: &mut Vec<bool>) {
@@ -60,25 +61,12 @@ pub(super) fn remove_speckles(
         label[start] = next;
         while let Some(p) = stack.pop() {
             members.push(p);
-            let (x, y) = (p % w, p / w);
             let dp = data[p];
-            let mut visit = |q: usize| {
+            for q in neighbours4(p, w, h) {
                 if label[q] == u32::MAX && data[q].is_finite() && (data[q] - dp).abs() <= max_diff {
                     label[q] = next;
                     stack.push(q);
                 }
-            };
-            if x > 0 {
-                visit(p - 1);
-            }
-            if x + 1 < w {
-                visit(p + 1);
-            }
-            if y > 0 {
-                visit(p - w);
-            }
-            if y + 1 < h {
-                visit(p + w);
             }
         }
         if members.len() < max_area {
