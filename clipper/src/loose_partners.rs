@@ -14,6 +14,7 @@
 use nalgebra::Point3;
 use rayon::prelude::*;
 
+use crate::build::UsedPoints;
 use crate::tolerance::PairThresholds;
 use crate::{Association, ClipperError, ConsistencyGraph, Invariant, PointVariances};
 
@@ -81,21 +82,17 @@ impl<'a> PartnerSearch<'a> {
         let (n_p, n_q) = (prior.len(), query.len());
         let mut lookup = vec![u32::MAX; n_p * n_q];
         let mut max_var_of_prior = vec![0.0_f64; n_p];
-        let (mut prior_used, mut query_used) = (vec![false; n_p], vec![false; n_q]);
         let mut query_of_loose = vec![false; n_q];
         for (id, a) in associations.iter().enumerate() {
             let (i, j) = (a.prior as usize, a.query as usize);
             lookup[i * n_q + j] = id as u32;
             max_var_of_prior[i] = max_var_of_prior[i].max(pair.var(id));
-            (prior_used[i], query_used[j]) = (true, true);
             query_of_loose[j] |= loose[id];
         }
-        let used = |flags: &[bool]| -> Vec<u32> {
-            (0..flags.len() as u32)
-                .filter(|&x| flags[x as usize])
-                .collect()
+        let used = |n: usize, point: fn(&Association) -> u32| {
+            UsedPoints::new(n, associations.iter().map(point)).original
         };
-        let query_active = used(&query_used);
+        let query_active = used(n_q, |a| a.query);
         let t = &pair.test;
         let looseness: Vec<f64> = (0..n_q)
             .map(|l| pair.looseness(variances.query[l], variances.query_z.get(l).copied()))
@@ -130,7 +127,7 @@ impl<'a> PartnerSearch<'a> {
             loose,
             lookup,
             max_var_of_prior,
-            prior_active: used(&prior_used),
+            prior_active: used(n_p, |a| a.prior),
             variances,
             by_distance,
         }

@@ -115,6 +115,12 @@ fn check_variances(map: &'static str, v: &[f64], n: usize) -> Result<(), Clipper
     Ok(())
 }
 
+/// A pair's threshold: `multiplier` standard deviations of its residual (variance `var`),
+/// at least the invariant's `floor` and at most `cap` (never below the floor).
+fn pair_threshold(floor: f64, multiplier: f64, var: f64, cap: f64) -> f64 {
+    floor.max(multiplier * var.sqrt()).min(cap.max(floor))
+}
+
 /// The invariant with its thresholds raised to the largest any pair can get (the widths
 /// are left as they are: the filter recomputes every weight).
 fn widened(invariant: &Invariant, epsilon: f64, epsilon_z: f64) -> Invariant {
@@ -180,8 +186,8 @@ impl PairThresholds {
             vec![0.0; associations.len()]
         };
         let max_of = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
-        let widest =
-            |floor: f64, cap: f64, var: f64| floor.max(k * (2.0 * var).sqrt()).min(cap.max(floor));
+        // the widest pair: the loosest association with itself
+        let widest = |floor: f64, cap: f64, var: f64| pair_threshold(floor, k, 2.0 * var, cap);
         Ok(Self {
             test: *base,
             epsilon_max: widest(base.epsilon, variances.max_epsilon, max_of(&var)),
@@ -212,9 +218,7 @@ impl PairThresholds {
     /// Whether a pair of association `u` with itself would exceed a floor: only pairs with
     /// a loose association can.
     fn is_loose(&self, u: usize) -> bool {
-        let k2 = self.multiplier * self.multiplier;
-        2.0 * k2 * self.var[u] > self.test.epsilon * self.test.epsilon
-            || (self.test.gravity && 2.0 * k2 * self.var_z[u] > self.test.epsilon_z.powi(2))
+        !self.at_floor(u, u)
     }
 
     /// The residual variance of association `u` (prior point + query point).
@@ -258,9 +262,24 @@ impl PairThresholds {
     /// association of residual variance `var_v`.
     pub fn threshold(&self, u: usize, var_v: f64) -> f64 {
         let t = &self.test;
-        t.epsilon
-            .max(self.multiplier * (self.var[u] + var_v).sqrt())
-            .min(self.epsilon_max)
+        pair_threshold(
+            t.epsilon,
+            self.multiplier,
+            self.var[u] + var_v,
+            self.epsilon_max,
+        )
+    }
+
+    /// The height threshold of a pair of association `u` with an association of height
+    /// variance `var_z_v` (4-DOF).
+    fn threshold_z(&self, u: usize, var_z_v: f64) -> f64 {
+        let t = &self.test;
+        pair_threshold(
+            t.epsilon_z,
+            self.multiplier,
+            self.var_z[u] + var_z_v,
+            self.epsilon_z_max,
+        )
     }
 
     fn summary(&self) -> ToleranceSummary {
@@ -278,10 +297,12 @@ impl PairThresholds {
             widened,
             epsilon_max: self.epsilon_max,
             epsilon_z_max: self.epsilon_z_max,
-            epsilon_median: t
-                .epsilon
-                .max(self.multiplier * (2.0 * median).sqrt())
-                .min(self.epsilon_max),
+            epsilon_median: pair_threshold(
+                t.epsilon,
+                self.multiplier,
+                2.0 * median,
+                self.epsilon_max,
+            ),
         }
     }
 
@@ -303,25 +324,21 @@ impl PairThresholds {
         let (a, b) = if a.prior < b.prior { (a, b) } else { (b, a) };
         let mp = t.measure(&prior[a.prior as usize], &prior[b.prior as usize]);
         let mq = t.measure(&query[a.query as usize], &query[b.query as usize]);
-        let scale = |floor: f64, cap: f64, var: f64| {
-            floor.max(self.multiplier * var.sqrt()).min(cap) / floor
-        };
-        let s = scale(t.epsilon, self.epsilon_max, self.var[u] + self.var[v]);
+        // each threshold is the floor scaled by s; the weight's width scales with it
+        let threshold = self.threshold(u, self.var[v]);
         let c = (mp.dist - mq.dist).abs();
-        if c >= t.epsilon * s {
+        if c >= threshold {
             return None;
         }
+        let s = threshold / t.epsilon;
         let mut x = c * c * t.inv_two_sigma_sq / (s * s);
         if t.gravity {
-            let sz = scale(
-                t.epsilon_z,
-                self.epsilon_z_max,
-                self.var_z[u] + self.var_z[v],
-            );
+            let threshold_z = self.threshold_z(u, self.var_z[v]);
             let cz = (mp.dz - mq.dz).abs();
-            if cz >= t.epsilon_z * sz {
+            if cz >= threshold_z {
                 return None;
             }
+            let sz = threshold_z / t.epsilon_z;
             x += cz * cz * t.inv_two_sigma_z_sq / (sz * sz);
         }
         Some(exp_neg(x as f32))

@@ -7,6 +7,7 @@
 //! - [`scan`]: tests every association pair with a vectorised prefilter (sparse lists).
 
 mod join;
+pub(crate) use join::UsedPoints;
 mod scan;
 #[cfg(target_arch = "x86_64")]
 mod scan_avx2;
