@@ -10,6 +10,8 @@
 //!   takes a traverse.
 //! - [`LacGrid`]: the Lunar Autonomy Challenge 180 × 180 height / rock grid and its CSV
 //!   ([`read_grid_csv`], [`write_grid_csv`]).
+//! - [`RockRaster`]: a rock mask from above (PNG or CSV) placed by its corner and cell size,
+//!   with optional heights ([`read_rock_mask`], [`read_heights_into`]).
 //! - [`StreamFrame`]: one camera frame of a recorded drive (odometry pose, gravity, boulder
 //!   detections in the rover frame), for replaying it through the online localizer; the
 //!   JSON Lines frames file ([`read_frames`], [`write_frames`]).
@@ -31,6 +33,7 @@ pub mod landmark;
 pub mod map_file;
 pub mod object_map;
 pub mod point_list;
+pub mod raster;
 pub mod rigid;
 pub mod traverse;
 pub mod tum;
@@ -55,6 +58,7 @@ pub use map_file::{
 };
 pub use object_map::ObjectMap;
 pub use point_list::parse_point_list;
+pub use raster::{read_heights_into, read_rock_mask, RockRaster};
 pub use rigid::{isometry_from_matrix, RigidError, RIGID_TOLERANCE};
 pub use traverse::{
     parse_lunarloc_traverse, read_lunarloc_traverse, Traverse, TraverseFrame, TRAVERSE_HEADER,

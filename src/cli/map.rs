@@ -2,13 +2,15 @@
 
 use super::print_json;
 use anyhow::{Context, Result};
-use clap::Subcommand;
+use clap::{Args, Subcommand};
 use segloc::io::load_map;
 use segloc::landmarks::from_grid::coarsened;
-use segloc::landmarks::{map_from_grid, GridRocksConfig};
+use segloc::landmarks::{map_from_grid, map_from_raster, GridRocksConfig};
 use segloc::merge::{merge_maps, MapStatus, MergeConfig};
 use segloc::relocalize::RelocalizeConfig;
-use segloc_maps::{read_grid_csv, read_map, write_map};
+use segloc_maps::{
+    read_grid_csv, read_heights_into, read_map, read_rock_mask, write_map, ObjectMap,
+};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -58,28 +60,11 @@ pub enum MapCommand {
         #[arg(long)]
         json: bool,
     },
-    /// Cluster the rock cells of a LAC grid CSV (`i,j,x,y,height,rock`) into rocks and
-    /// write them as a prior map: 8-connected rock cells are one rock, its landmark at their
-    /// mean centre and height, with the cell quantisation as its covariance.
-    FromGrid {
-        /// The grid CSV.
-        grid: PathBuf,
-        /// The map file to write (atomically).
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Rocks of fewer cells are left out.
-        #[arg(long, default_value_t = 1)]
-        min_cells: usize,
-        /// Coarsen the grid first by OR-ing this many cells per side (1: as it is).
-        #[arg(long, default_value_t = 1)]
-        coarsen: usize,
-        /// Session id to record.
-        #[arg(long, default_value = "grid")]
-        session: String,
-        /// Print a JSON summary.
-        #[arg(long)]
-        json: bool,
-    },
+    /// Cluster the rock cells of a LAC grid CSV (`i,j,x,y,height,rock`), or of a rock raster
+    /// (a PNG or CSV mask with `--cell-size` and `--origin`), into rocks and write them as a
+    /// prior map: 8-connected rock cells are one rock, its landmark at their mean centre and
+    /// height, with the cell quantisation as its covariance.
+    FromGrid(FromGridArgs),
     /// Describe a map file.
     Info {
         /// The map file.
@@ -137,14 +122,7 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
             *json,
             config,
         ),
-        MapCommand::FromGrid {
-            grid,
-            output,
-            min_cells,
-            coarsen,
-            session,
-            json,
-        } => from_grid(grid, output, *min_cells, *coarsen, session, *json),
+        MapCommand::FromGrid(args) => from_grid(args),
         MapCommand::Info { map, json } => {
             let m = read_map(map)?;
             let observations: u32 = m.landmarks.iter().map(|l| l.observations).sum();
@@ -175,48 +153,144 @@ pub fn run(cmd: &MapCommand, config: &RelocalizeConfig) -> Result<i32> {
     }
 }
 
-fn from_grid(
-    grid_path: &std::path::Path,
-    output: &std::path::Path,
+/// `segloc map from-grid`.
+#[derive(Args, Debug)]
+pub struct FromGridArgs {
+    /// The LAC grid CSV, or a rock mask (PNG: bright pixels are rock; CSV: rows of 0/1, top
+    /// row first) when `--cell-size` is given.
+    grid: PathBuf,
+    /// The map file to write (atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Rocks of fewer cells are left out.
+    #[arg(long, default_value_t = 1)]
     min_cells: usize,
+    /// Coarsen the grid first by OR-ing this many cells per side (1: as it is; LAC grids
+    /// only).
+    #[arg(long, default_value_t = 1)]
     coarsen: usize,
-    session: &str,
+    /// Read the input as a rock mask with cells of this size (metres).
+    #[arg(long)]
+    cell_size: Option<f64>,
+    /// The mask's top-left corner in the world, `X,Y` metres (row 0 is the top, at the
+    /// largest y; column 0 the left).
+    #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
+    origin: Option<(f64, f64)>,
+    /// Terrain heights of the mask's cells (CSV, metres, the mask's shape); without it every
+    /// rock sits at height 0.
+    #[arg(long)]
+    heights: Option<PathBuf>,
+    /// Session id to record.
+    #[arg(long, default_value = "grid")]
+    session: String,
+    /// Print a JSON summary.
+    #[arg(long)]
     json: bool,
-) -> Result<i32> {
-    if coarsen == 0 {
-        anyhow::bail!("--coarsen must be at least 1");
+}
+
+fn parse_xy(text: &str) -> std::result::Result<(f64, f64), String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let number = |s: &str| s.parse::<f64>().ok().filter(|v| v.is_finite());
+    match parts.as_slice() {
+        [x, y] => match (number(x), number(y)) {
+            (Some(x), Some(y)) => Ok((x, y)),
+            _ => Err(format!("expected two finite numbers X,Y, got '{text}'")),
+        },
+        _ => Err(format!("expected X,Y (two numbers), got '{text}'")),
     }
-    let mut grid = read_grid_csv(grid_path)?;
-    if coarsen > 1 {
-        grid = coarsened(&grid, coarsen);
-    }
+}
+
+/// What a rock grid or raster was, for the summary.
+struct GridSummary {
+    rock_cells: usize,
+    cell_size_m: f64,
+    shape: (usize, usize),
+}
+
+fn from_grid(a: &FromGridArgs) -> Result<i32> {
     let config = GridRocksConfig {
-        min_cells,
+        min_cells: a.min_cells,
         ..GridRocksConfig::default()
     };
-    let mut map = map_from_grid(&grid, &config, session)
-        .map_err(|e| e.in_file(grid_path))
-        .with_context(|| format!("building rocks from {}", grid_path.display()))?;
+    let (mut map, summary) = match (a.cell_size, a.origin) {
+        (None, None) => lac_grid_map(a, &config)?,
+        (Some(cell_size_m), Some(origin)) => raster_map(a, cell_size_m, origin, &config)?,
+        _ => anyhow::bail!(
+            "{}: a rock mask needs both --cell-size and --origin (a LAC grid CSV neither)",
+            a.grid.display()
+        ),
+    };
     map.notes
-        .insert("grid".into(), grid_path.display().to_string());
-    write_map(&map, output).with_context(|| "writing the map")?;
-    if json {
+        .insert("grid".into(), a.grid.display().to_string());
+    write_map(&map, &a.output).with_context(|| "writing the map")?;
+    if a.json {
         print_json(&json!({
-            "output": output, "landmarks": map.len(), "rock_cells": grid.rock_count(),
-            "cell_size_m": grid.cell_size_m, "cells_per_side": grid.cells_per_side,
-            "session": map.session,
+            "output": a.output, "landmarks": map.len(), "rock_cells": summary.rock_cells,
+            "cell_size_m": summary.cell_size_m, "cells": [summary.shape.0, summary.shape.1],
+            "cells_per_side": (summary.shape.0 == summary.shape.1).then_some(summary.shape.0),
+            "heights": !map.notes.contains_key("heights"), "session": map.session,
         }))?;
     } else {
         println!(
             "{} rocks from {} rock cells of {} m in {} -> {}",
             map.len(),
-            grid.rock_count(),
-            grid.cell_size_m,
-            grid_path.display(),
-            output.display()
+            summary.rock_cells,
+            summary.cell_size_m,
+            a.grid.display(),
+            a.output.display()
         );
     }
     Ok(0)
+}
+
+fn lac_grid_map(a: &FromGridArgs, config: &GridRocksConfig) -> Result<(ObjectMap, GridSummary)> {
+    if a.coarsen == 0 {
+        anyhow::bail!("--coarsen must be at least 1");
+    }
+    if a.heights.is_some() {
+        anyhow::bail!("--heights is for a rock mask; a LAC grid CSV has its own heights");
+    }
+    let mut grid = read_grid_csv(&a.grid)?;
+    if a.coarsen > 1 {
+        grid = coarsened(&grid, a.coarsen);
+    }
+    let map = map_from_grid(&grid, config, &a.session)
+        .map_err(|e| e.in_file(&a.grid))
+        .with_context(|| format!("building rocks from {}", a.grid.display()))?;
+    let summary = GridSummary {
+        rock_cells: grid.rock_count(),
+        cell_size_m: grid.cell_size_m,
+        shape: (grid.cells_per_side, grid.cells_per_side),
+    };
+    Ok((map, summary))
+}
+
+fn raster_map(
+    a: &FromGridArgs,
+    cell_size_m: f64,
+    origin: (f64, f64),
+    config: &GridRocksConfig,
+) -> Result<(ObjectMap, GridSummary)> {
+    if a.coarsen != 1 {
+        anyhow::bail!("--coarsen is for LAC grids; give a rock mask at the cell size wanted");
+    }
+    let mut raster = read_rock_mask(&a.grid, cell_size_m, origin)?;
+    match &a.heights {
+        Some(path) => read_heights_into(&mut raster, path)?,
+        None => eprintln!(
+            "warning: {}: no --heights: every rock is placed at height 0",
+            a.grid.display()
+        ),
+    }
+    let map = map_from_raster(&raster, config, &a.session)
+        .map_err(|e| e.in_file(&a.grid))
+        .with_context(|| format!("building rocks from {}", a.grid.display()))?;
+    let summary = GridSummary {
+        rock_cells: raster.rock_count(),
+        cell_size_m,
+        shape: (raster.rows, raster.columns),
+    };
+    Ok((map, summary))
 }
 
 fn merge(

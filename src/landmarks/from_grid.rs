@@ -11,7 +11,7 @@
 //! so its `observations` is 0: the relocalizer treats such a map as a survey prior.
 
 use nalgebra::{Matrix3, Point3};
-use segloc_maps::{LacGrid, Landmark, MapError, ObjectMap};
+use segloc_maps::{LacGrid, Landmark, MapError, ObjectMap, RockRaster};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the grid-to-landmarks stage.
@@ -57,6 +57,58 @@ fn invalid(message: String) -> MapError {
     }
 }
 
+/// A regular grid of cells seen from above, some of them rock: the LAC grid
+/// ([`LacGrid`], cells `(i, j)` along x and y) or a rock raster ([`RockRaster`], cells
+/// `(row, column)`). Cells are addressed `(a, b)` with `a < shape().0`, `b < shape().1`.
+pub trait RockCells {
+    /// Number of cells along the first and the second index.
+    fn shape(&self) -> (usize, usize);
+    /// Cell edge length, metres.
+    fn cell_size_m(&self) -> f64;
+    /// Whether cell `(a, b)` holds rock.
+    fn is_rock(&self, a: usize, b: usize) -> bool;
+    /// Terrain height of cell `(a, b)`, metres; NaN when unknown.
+    fn height_m(&self, a: usize, b: usize) -> f64;
+    /// World (x, y) of the centre of cell `(a, b)`, metres.
+    fn center(&self, a: usize, b: usize) -> (f64, f64);
+}
+
+impl RockCells for LacGrid {
+    fn shape(&self) -> (usize, usize) {
+        (self.cells_per_side, self.cells_per_side)
+    }
+    fn cell_size_m(&self) -> f64 {
+        self.cell_size_m
+    }
+    fn is_rock(&self, a: usize, b: usize) -> bool {
+        self.rock[self.index(a, b)]
+    }
+    fn height_m(&self, a: usize, b: usize) -> f64 {
+        self.height[self.index(a, b)]
+    }
+    fn center(&self, a: usize, b: usize) -> (f64, f64) {
+        self.cell_center(a, b)
+    }
+}
+
+impl RockCells for RockRaster {
+    fn shape(&self) -> (usize, usize) {
+        (self.rows, self.columns)
+    }
+    fn cell_size_m(&self) -> f64 {
+        self.cell_size_m
+    }
+    fn is_rock(&self, a: usize, b: usize) -> bool {
+        self.rock[self.index(a, b)]
+    }
+    fn height_m(&self, a: usize, b: usize) -> f64 {
+        self.height_m[self.index(a, b)]
+    }
+    fn center(&self, a: usize, b: usize) -> (f64, f64) {
+        self.cell_center(a, b)
+    }
+}
+
 /// The rocks of `grid` as a gravity-aligned map (frame "world", session `session`), ids in
 /// the order of each rock's first cell (i outer, j inner). A grid without rock cells, or
 /// whose rocks all fall below `min_cells`, is an error; so is a rock cell without a height.
@@ -65,13 +117,47 @@ pub fn map_from_grid(
     config: &GridRocksConfig,
     session: &str,
 ) -> Result<ObjectMap, MapError> {
-    config.validate()?;
     grid.validate()?;
-    if grid.rock_count() == 0 {
+    map_from_rock_cells(grid, config, session)
+}
+
+/// The rocks of a rock raster as a gravity-aligned map, as [`map_from_grid`] (ids in the
+/// order of each rock's first cell, rows outer). Without a heights raster every landmark
+/// sits at height 0 (the relocalizer's 4-DOF alignment finds the offset; the terrain's
+/// relief within the query's extent then adds to the residuals), and a rock cell without
+/// a height in a raster that has heights is an error.
+pub fn map_from_raster(
+    raster: &RockRaster,
+    config: &GridRocksConfig,
+    session: &str,
+) -> Result<ObjectMap, MapError> {
+    if raster.has_heights() {
+        return map_from_rock_cells(raster, config, session);
+    }
+    let flat = RockRaster {
+        height_m: vec![0.0; raster.height_m.len()],
+        ..raster.clone()
+    };
+    let mut map = map_from_rock_cells(&flat, config, session)?;
+    map.notes
+        .insert("heights".into(), "none: every rock at height 0".into());
+    Ok(map)
+}
+
+/// The rocks of any [`RockCells`] grid (see [`map_from_grid`]).
+pub fn map_from_rock_cells<G: RockCells>(
+    grid: &G,
+    config: &GridRocksConfig,
+    session: &str,
+) -> Result<ObjectMap, MapError> {
+    config.validate()?;
+    let clusters = rock_clusters(grid);
+    if clusters.is_empty() {
         return Err(invalid("the grid has no rock cells".into()));
     }
+    let rock_cells: usize = clusters.iter().map(Vec::len).sum();
     let mut map = ObjectMap::new("world", session, true);
-    for cells in rock_clusters(grid) {
+    for cells in clusters {
         if cells.len() < config.min_cells {
             continue;
         }
@@ -80,38 +166,38 @@ pub fn map_from_grid(
     }
     if map.landmarks.is_empty() {
         return Err(invalid(format!(
-            "the grid's {} rock cells make no rock of at least {} cells",
-            grid.rock_count(),
+            "the grid's {rock_cells} rock cells make no rock of at least {} cells",
             config.min_cells
         )));
     }
     map.notes.insert(
         "source".into(),
-        format!("rock grid, {} m cells", grid.cell_size_m),
+        format!("rock grid, {} m cells", grid.cell_size_m()),
     );
     Ok(map)
 }
 
-/// The 8-connected clusters of rock cells, each a list of (i, j) in discovery order.
-pub fn rock_clusters(grid: &LacGrid) -> Vec<Vec<(usize, usize)>> {
-    let n = grid.cells_per_side;
-    let mut seen = vec![false; grid.num_cells()];
+/// The 8-connected clusters of rock cells, each a list of `(a, b)` in discovery order.
+pub fn rock_clusters<G: RockCells>(grid: &G) -> Vec<Vec<(usize, usize)>> {
+    let (na, nb) = grid.shape();
+    let mut seen = vec![false; na * nb];
     let mut clusters = Vec::new();
-    for start in 0..grid.num_cells() {
-        if !grid.rock[start] || seen[start] {
+    for start in 0..na * nb {
+        let (a0, b0) = (start / nb, start % nb);
+        if !grid.is_rock(a0, b0) || seen[start] {
             continue;
         }
         seen[start] = true;
-        let mut stack = vec![(start / n, start % n)];
+        let mut stack = vec![(a0, b0)];
         let mut cells = Vec::new();
-        while let Some((i, j)) = stack.pop() {
-            cells.push((i, j));
-            for ni in i.saturating_sub(1)..=(i + 1).min(n - 1) {
-                for nj in j.saturating_sub(1)..=(j + 1).min(n - 1) {
-                    let k = grid.index(ni, nj);
-                    if grid.rock[k] && !seen[k] {
+        while let Some((a, b)) = stack.pop() {
+            cells.push((a, b));
+            for na_ in a.saturating_sub(1)..=(a + 1).min(na - 1) {
+                for nb_ in b.saturating_sub(1)..=(b + 1).min(nb - 1) {
+                    let k = na_ * nb + nb_;
+                    if grid.is_rock(na_, nb_) && !seen[k] {
                         seen[k] = true;
-                        stack.push((ni, nj));
+                        stack.push((na_, nb_));
                     }
                 }
             }
@@ -122,28 +208,28 @@ pub fn rock_clusters(grid: &LacGrid) -> Vec<Vec<(usize, usize)>> {
 }
 
 /// One rock's landmark (see the module docs for the covariance).
-fn rock_landmark(
-    grid: &LacGrid,
+fn rock_landmark<G: RockCells>(
+    grid: &G,
     cells: &[(usize, usize)],
     config: &GridRocksConfig,
     id: u32,
 ) -> Result<Landmark, MapError> {
     let count = cells.len() as f64;
     let (mut x, mut y, mut z, mut zz) = (0.0, 0.0, 0.0, 0.0);
-    for &(i, j) in cells {
-        let h = grid.height[grid.index(i, j)];
+    for &(a, b) in cells {
+        let h = grid.height_m(a, b);
         if h.is_nan() {
             return Err(invalid(format!(
-                "rock cell ({i}, {j}) has no height; a rock map needs the height layer"
+                "rock cell ({a}, {b}) has no height; a rock map needs the height layer"
             )));
         }
-        let (cx, cy) = grid.cell_center(i, j);
+        let (cx, cy) = grid.center(a, b);
         x += cx / count;
         y += cy / count;
         z += h / count;
         zz += h * h / count;
     }
-    let cell = grid.cell_size_m;
+    let cell = grid.cell_size_m();
     let var_xy = cell * cell / 12.0;
     let var_z = config.height_sigma_m.powi(2) + (zz - z * z).max(0.0);
     let extent = |axis: fn(&(usize, usize)) -> usize| {

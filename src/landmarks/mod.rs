@@ -16,7 +16,7 @@ pub mod view_bias;
 
 use crate::field_error::FieldError;
 pub use estimate::CentroidEstimator;
-pub use from_grid::{map_from_grid, GridRocksConfig};
+pub use from_grid::{map_from_grid, map_from_raster, GridRocksConfig, RockCells};
 pub use from_points::{map_from_points, PointsMapOptions};
 use segloc_maps::{Detection, DetectionSet, ObjectMap};
 use serde::{Deserialize, Serialize};
