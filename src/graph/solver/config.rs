@@ -159,7 +159,7 @@ impl Default for SolverConfig {
             damping: Damping::Identity,
             initialization: Initialization::None,
             chord_steps: 1,
-            chord_regime: 1e-3,
+            chord_regime: 1e-2,
             single_precision_regime: 1e-2,
             gnc: GncConfig::default(),
             log_iterations: true,
