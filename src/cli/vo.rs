@@ -9,12 +9,42 @@ use segloc::vo::{run_sequence, tum, FrameResult, StereoSequence, VoConfig, VoErr
 use serde::Serialize;
 use std::path::PathBuf;
 
+/// Where a stereo sequence comes from: exactly one of the three.
+#[derive(Args, Debug)]
+#[group(required = true, multiple = false)]
+pub struct SequenceArgs {
+    /// A KITTI-layout folder: image_l/, image_r/, calib.txt (P0, P1); t = 0.1·frame.
+    #[arg(long)]
+    pub kitti: Option<PathBuf>,
+    /// A `segloc sim render` folder: NNNNNN_0.png / NNNNNN_1.png, calibration.json and
+    /// truth.tum.
+    #[arg(long)]
+    pub images: Option<PathBuf>,
+    /// A `.lac` recording (FrontLeft / FrontRight grayscale images, the IPEX calibration).
+    #[arg(long)]
+    pub lac: Option<PathBuf>,
+}
+
+impl SequenceArgs {
+    /// Reads the sequence; returns it with the path that names it.
+    pub fn read(&self) -> Result<(StereoSequence, PathBuf), VoError> {
+        match (&self.kitti, &self.images, &self.lac) {
+            (Some(dir), _, _) => Ok((StereoSequence::read_kitti(dir)?, dir.clone())),
+            (_, Some(dir), _) => Ok((StereoSequence::read_rendered(dir)?, dir.clone())),
+            (_, _, Some(path)) => Ok((StereoSequence::read_lac(path)?, path.clone())),
+            _ => Err(VoError::Config(
+                "give a sequence: --kitti DIR, --images DIR or --lac FILE".into(),
+            )),
+        }
+    }
+}
+
 /// Arguments of `segloc vo`.
 #[derive(Args, Debug)]
 pub struct VoArgs {
-    /// A KITTI-layout folder: image_l/, image_r/, calib.txt (P0, P1); t = 0.1·frame.
-    #[arg(long)]
-    pub kitti: PathBuf,
+    /// The stereo sequence.
+    #[command(flatten)]
+    pub sequence: SequenceArgs,
     /// Output trajectory (TUM: t tx ty tz qx qy qz qw), the left camera in the first left
     /// camera's frame.
     #[arg(short, long)]
@@ -30,9 +60,10 @@ pub struct VoArgs {
 /// Arguments of `segloc eval vo`.
 #[derive(Args, Debug)]
 pub struct EvalVoArgs {
-    /// A KITTI-layout folder with poses.txt.
-    #[arg(long)]
-    pub kitti: PathBuf,
+    /// The stereo sequence, with its ground truth (KITTI poses.txt, a render folder's
+    /// truth.tum, or a `.lac` recording's rover poses).
+    #[command(flatten)]
+    pub sequence: SequenceArgs,
     /// VO configuration (TOML, fields of `VoConfig`).
     #[arg(long, value_name = "FILE")]
     pub vo_config: Option<PathBuf>,
@@ -130,7 +161,7 @@ fn exit_code(result: anyhow::Result<()>) -> anyhow::Result<i32> {
 pub fn run(a: &VoArgs) -> anyhow::Result<i32> {
     exit_code((|| {
         let config = config_of(&a.vo_config)?;
-        let sequence = StereoSequence::read_kitti(&a.kitti)?;
+        let (sequence, _) = a.sequence.read()?;
         let results = run_sequence(&sequence, &config)?;
         let poses: Vec<_> = results.iter().map(|r| (r.time_s, r.pose)).collect();
         write_atomic(&a.output, tum::tum_text(&poses).as_bytes())?;
@@ -158,11 +189,13 @@ struct EvalOutput<'a> {
 pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
     exit_code((|| {
         let config = config_of(&a.vo_config)?;
-        let sequence = StereoSequence::read_kitti(&a.kitti)?;
+        let (sequence, source) = a.sequence.read()?;
         let Some(truth) = sequence.truth.clone() else {
             return Err(VoError::Sequence {
-                path: a.kitti.join("poses.txt"),
-                message: "ground truth poses.txt is missing".into(),
+                path: source,
+                message: "the sequence has no ground truth (poses.txt, truth.tum or recorded \
+                          rover poses)"
+                    .into(),
             }
             .into());
         };
@@ -173,7 +206,7 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
             .sum();
         let (Some(end), Some(end_truth)) = (results.last(), truth.last()) else {
             return Err(VoError::Sequence {
-                path: a.kitti.clone(),
+                path: source,
                 message: "no frames".into(),
             }
             .into());

@@ -33,6 +33,9 @@ pub enum VoError {
         /// What is wrong.
         message: String,
     },
+    /// A trajectory file could not be read (it names the file and line).
+    #[error(transparent)]
+    Trajectory(#[from] segloc_maps::MapError),
     /// An image could not be read.
     #[error(transparent)]
     Image(#[from] crate::perception::PerceptionError),

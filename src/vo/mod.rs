@@ -8,14 +8,17 @@
 //! a robust 3D–2D refinement ([`motion`]). The back end ([`window`]) refines a sliding
 //! window of frames and their points by bundle adjustment on the pose graph's stereo
 //! projection factors. [`StereoOdometry`] runs the stages ([`odometry`]); [`sequence`] reads
-//! sequences (KITTI layout) and [`tum`] writes trajectories.
+//! sequences (KITTI layout; a `segloc sim render` folder in [`rendered_sequence`], a `.lac`
+//! recording in [`lac_sequence`]) and [`tum`] writes trajectories.
 
 pub mod corners;
 pub mod error;
 pub mod klt;
+pub mod lac_sequence;
 pub mod motion;
 pub mod odometry;
 pub mod pyramid;
+pub mod rendered_sequence;
 pub mod sequence;
 pub mod stereo_match;
 pub mod tum;
@@ -23,9 +26,7 @@ pub mod window;
 
 pub use error::VoError;
 pub use odometry::{FrameResult, StereoOdometry, VoConfig};
-pub use sequence::StereoSequence;
-
-use crate::perception::read_gray_png;
+pub use sequence::{FrameImages, SequenceFrame, StereoSequence};
 
 /// Runs the odometry over a sequence, checking that every image has the size of the first.
 pub fn run_sequence(
@@ -35,12 +36,11 @@ pub fn run_sequence(
     let mut vo = StereoOdometry::new(sequence.calibration, config.clone())?;
     let mut results = Vec::with_capacity(sequence.frames.len());
     let mut size = None;
-    for frame in &sequence.frames {
+    for (k, frame) in sequence.frames.iter().enumerate() {
         let start = std::time::Instant::now();
-        let left = read_gray_png(&frame.left)?;
-        let right = read_gray_png(&frame.right)?;
+        let [(left, left_name), (right, right_name)] = sequence.load(k)?;
         let expected = *size.get_or_insert((left.width, left.height));
-        for (image, path) in [(&left, &frame.left), (&right, &frame.right)] {
+        for (image, path) in [(&left, &left_name), (&right, &right_name)] {
             if (image.width, image.height) != expected {
                 return Err(VoError::Sequence {
                     path: path.clone(),

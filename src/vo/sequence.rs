@@ -1,21 +1,40 @@
-//! Stereo sequences on disk: the KITTI odometry layout (`image_l/NNNNNN.png`,
-//! `image_r/NNNNNN.png`, `calib.txt` with the projection matrices P0 and P1, optional
-//! `poses.txt`; frame k at t = 0.1·k s).
+//! Stereo sequences: the calibration, the frames in time order and where their images are,
+//! and the ground truth when there is one. Read from the KITTI odometry layout here
+//! (`image_l/NNNNNN.png`, `image_r/NNNNNN.png`, `calib.txt` with the projection matrices P0
+//! and P1, optional `poses.txt`; frame k at t = 0.1·k s), from a `segloc sim render` folder
+//! ([`super::rendered_sequence`]) or from a `.lac` recording ([`super::lac_sequence`]).
 
 use super::VoError;
 use crate::graph::StereoCalibration;
+use crate::perception::lac::{ImageKind, LacRecording};
+use crate::perception::{read_gray_png, GrayImage};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
 use std::path::{Path, PathBuf};
 
-/// One stereo frame on disk.
+/// Where one stereo frame's images are.
 #[derive(Clone, Debug, PartialEq)]
-pub struct FramePaths {
+pub enum FrameImages {
+    /// Two PNG files.
+    Files {
+        /// Left image.
+        left: PathBuf,
+        /// Right image.
+        right: PathBuf,
+    },
+    /// A frame of the sequence's `.lac` recording (cameras `FrontLeft` / `FrontRight`).
+    Lac {
+        /// The recording's frame number.
+        frame: u64,
+    },
+}
+
+/// One stereo frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SequenceFrame {
     /// Time, seconds.
     pub time_s: f64,
-    /// Left image.
-    pub left: PathBuf,
-    /// Right image.
-    pub right: PathBuf,
+    /// Its images.
+    pub images: FrameImages,
 }
 
 /// A stereo sequence: calibration and frames in time order.
@@ -24,9 +43,11 @@ pub struct StereoSequence {
     /// The rectified pair's intrinsics and baseline.
     pub calibration: StereoCalibration,
     /// Frames, strictly increasing in time.
-    pub frames: Vec<FramePaths>,
+    pub frames: Vec<SequenceFrame>,
     /// Ground truth `first_from_camera` per frame, when the sequence has it.
     pub truth: Option<Vec<Isometry3<f64>>>,
+    /// The recording that [`FrameImages::Lac`] frames come from.
+    pub lac: Option<LacRecording>,
 }
 
 fn read(path: &Path) -> Result<String, VoError> {
@@ -187,10 +208,9 @@ impl StereoSequence {
                     message: format!("missing right image for {}", left.display()),
                 });
             }
-            frames.push(FramePaths {
+            frames.push(SequenceFrame {
                 time_s: 0.1 * n as f64,
-                left,
-                right,
+                images: FrameImages::Files { left, right },
             });
         }
         let truth_path = dir.join("poses.txt");
@@ -211,6 +231,60 @@ impl StereoSequence {
             calibration,
             frames,
             truth,
+            lac: None,
         })
     }
+
+    /// The left and right images of frame `k`, each with a name for messages.
+    pub fn load(&self, k: usize) -> Result<[(GrayImage, PathBuf); 2], VoError> {
+        let frame = self.frames.get(k).ok_or_else(|| VoError::Sequence {
+            path: PathBuf::new(),
+            message: format!("no frame {k}"),
+        })?;
+        match (&frame.images, &self.lac) {
+            (FrameImages::Files { left, right }, _) => Ok([
+                (read_gray_png(left)?, left.clone()),
+                (read_gray_png(right)?, right.clone()),
+            ]),
+            (FrameImages::Lac { frame }, Some(recording)) => {
+                let image = |camera: &str| -> Result<(GrayImage, PathBuf), VoError> {
+                    let name = recording
+                        .path
+                        .join(format!("{camera}/grayscale/frame {frame}"));
+                    match recording.image(camera, ImageKind::Grayscale, *frame)? {
+                        Some(image) => Ok((image, name)),
+                        None => Err(VoError::Sequence {
+                            path: recording.path.clone(),
+                            message: format!("frame {frame} has no {camera} image"),
+                        }),
+                    }
+                };
+                Ok([image("FrontLeft")?, image("FrontRight")?])
+            }
+            (FrameImages::Lac { .. }, None) => Err(VoError::Sequence {
+                path: PathBuf::new(),
+                message: "a .lac frame without its recording".into(),
+            }),
+        }
+    }
+}
+
+/// Checks that frame times strictly increase; `path` names the sequence.
+pub(crate) fn check_times(frames: &[SequenceFrame], path: &Path) -> Result<(), VoError> {
+    for (k, pair) in frames.windows(2).enumerate() {
+        if pair[1].time_s.partial_cmp(&pair[0].time_s) != Some(std::cmp::Ordering::Greater) {
+            return Err(VoError::Sequence {
+                path: path.into(),
+                message: format!(
+                    "frame {} is at t = {} s, not after frame {} (t = {} s): timestamps must \
+                     strictly increase",
+                    k + 1,
+                    pair[1].time_s,
+                    k,
+                    pair[0].time_s
+                ),
+            });
+        }
+    }
+    Ok(())
 }
