@@ -32,6 +32,7 @@ sections=(
   "posegraph|scripts/bench_posegraph.sh --runs $(q 3 11)"
   "stereo-ba|scripts/bench_stereo_ba.sh --runs $(q 3 11)"
   "vo|scripts/bench_vo.sh --runs $(q 1 3)"
+  "vo-rendered|scripts/bench_vo_rendered.sh $(q --quick)"
   "merge|scripts/bench_merge.sh"
   "python|scripts/bench_python.sh $(q '--rounds 1 --repeat 5' '--rounds 5 --repeat 20')"
   "mapping|scripts/bench_mapping.sh"
