@@ -415,7 +415,10 @@ fn sorted_query_pairs(query: &[Point3<f64>], used: &UsedPoints, test: &PairTest)
     }
 }
 
+/// The bucket of a distance. Truncation, not `floor`: the two differ only below 0, where
+/// every caller clamps to bucket 0 anyway, and `floor` is a library call on baseline x86-64
+/// (no SSE4.1), which showed as 5 % of a 2,000-rock prior's relocalization.
 #[inline]
 fn cell_of(dist: f64, width: f64) -> i64 {
-    (dist / width).floor() as i64
+    (dist / width) as i64
 }
