@@ -14,7 +14,7 @@ fn short_rendered_mission_reports_perception() {
             "--seed",
             "2",
             "--seconds",
-            "30",
+            "60",
             "--sensors",
             "rendered",
             "--half",
@@ -26,8 +26,8 @@ fn short_rendered_mission_reports_perception() {
     let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(v["sessions"].as_array().map(Vec::len), Some(2));
     let p = &v["perception"];
-    // two pairs (front, back) per camera frame, 31 frames per 30 s session
-    assert_eq!(p["pairs"].as_u64(), Some(2 * 2 * 31), "{p}");
+    // two pairs (front, back) per camera frame, 61 frames per 60 s session
+    assert_eq!(p["pairs"].as_u64(), Some(2 * 2 * 61), "{p}");
     assert_eq!(p["width_px"].as_u64(), Some(640), "{p}");
     assert_eq!(p["segmenter"].as_str(), Some("geometric"), "{p}");
     assert!(p["rocks"].as_u64().unwrap() > 0, "{p}");
