@@ -41,7 +41,8 @@ def fig(r):
     rel, lac = r["relocalizations"], r["lac"]
     return (rel["wrong_accepted"], r["collisions"], 100 * r["sessions"][1]["rmse_m"],
             lac["geometric"], lac["rocks"])
-seeds = [s for s in range(first, last + 1) if os.path.exists(f"{d}/r{s}.json")]
+seeds = [s for s in range(first, last + 1)
+         if os.path.exists(f"{d}/r{s}.json") and os.path.getsize(f"{d}/r{s}.json") > 0]
 cmd = f"segloc mission --seed S --sensors rendered {extra}".rstrip()
 print("## The mission on rendered images (`segloc mission --sensors rendered`)\n")
 print(f"`scripts/bench_mission_rendered.sh` ({cmd} --json; beside `--sensors model`) — "
