@@ -121,6 +121,8 @@ fn cli_json_has_the_report_fields() {
     assert!(v["collisions"].is_u64());
     assert!(v["realtime_factor"].as_f64().unwrap() > 0.0);
     assert!(v["config"]["seconds_per_session"].as_f64() == Some(60.0));
+    // the sensor model's report has no `perception`
+    assert!(v.get("perception").is_none());
     for file in [
         "report.json",
         "height_error.png",

@@ -1,13 +1,16 @@
 //! `segloc mission`: the two-session mission on the synthetic moon of a seed — session 1
 //! maps, session 2 starts lost and relocalizes against it — with the LAC maps scored.
 
+use super::detect::{make_segmenter, SegmenterKind};
 use super::print_json;
 use anyhow::{bail, Context, Result};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use segloc::mission::perception::BoulderSensors;
 use segloc::mission::{
-    run_mission_with_progress, MissionConfig, MissionOutput, MissionProgress, MissionStage, Silent,
+    run_mission_with, MissionConfig, MissionOutput, MissionProgress, MissionStage, Silent,
 };
+use segloc::perception::Segmenter;
 use segloc::relocalize::RelocalizeConfig;
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
@@ -39,6 +42,29 @@ pub struct MissionArgs {
     /// when no `--mission-config`.
     #[arg(long)]
     pub coverage: bool,
+    /// Where the boulder detections come from: the sensor model, or the perception front
+    /// end on rendered stereo pairs (default: the mission configuration's
+    /// `perception.sensors`, "model").
+    #[arg(long, value_enum)]
+    pub sensors: Option<SensorsArg>,
+    /// The segmenter of `--sensors rendered`.
+    #[arg(long, value_enum, default_value = "geometric")]
+    pub segmenter: SegmenterKind,
+    /// ONNX model file for `--segmenter onnx` (or another model for `--segmenter learned`).
+    #[arg(long, value_name = "ONNX")]
+    pub model: Option<PathBuf>,
+    /// Render at half resolution (640 × 360) with `--sensors rendered`.
+    #[arg(long)]
+    pub half: bool,
+}
+
+/// `--sensors`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SensorsArg {
+    /// The sensor model (`sim::sensors`).
+    Model,
+    /// The front end on rendered images.
+    Rendered,
 }
 
 /// Run the mission; exit code 0, or 2 on bad input.
@@ -48,13 +74,14 @@ pub fn run(
     global_config_given: bool,
 ) -> Result<i32> {
     let config = mission_config(args, relocalize, global_config_given)?;
+    let segmenter = segmenter(args, &config)?;
     let output = if args.progress {
         let bar = Bar::new(config.session_seconds());
-        let output = run_mission_with_progress(args.seed, &config, &bar);
+        let output = run_mission_with(args.seed, &config, &bar, segmenter);
         bar.bar.finish_and_clear();
         output?
     } else {
-        run_mission_with_progress(args.seed, &config, &Silent)?
+        run_mission_with(args.seed, &config, &Silent, segmenter)?
     };
     if let Some(dir) = &args.out {
         output
@@ -103,7 +130,32 @@ fn mission_config(
     if global_config_given {
         mission.localizer.relocalize = relocalize.clone();
     }
+    match args.sensors {
+        Some(SensorsArg::Model) => mission.perception.sensors = BoulderSensors::Model,
+        Some(SensorsArg::Rendered) => mission.perception.sensors = BoulderSensors::Rendered,
+        None => {}
+    }
+    if args.half {
+        mission.perception.render.resolution_scale = 0.5;
+    }
     Ok(mission)
+}
+
+/// The segmenter of the rendered sensing (`None`: the sensor model, or the default
+/// geometric one); `--segmenter`, `--model` and `--half` are refused with the sensor model.
+fn segmenter(args: &MissionArgs, config: &MissionConfig) -> Result<Option<Box<dyn Segmenter>>> {
+    if config.perception.sensors == BoulderSensors::Model {
+        if args.segmenter != SegmenterKind::Geometric || args.model.is_some() || args.half {
+            bail!("--segmenter, --model and --half need --sensors rendered");
+        }
+        return Ok(None);
+    }
+    let front_end = &config.perception.front_end;
+    Ok(Some(make_segmenter(
+        args.segmenter,
+        args.model.as_deref(),
+        front_end,
+    )?))
 }
 
 /// A progress bar over both sessions' simulated time; `session` is the one its message
@@ -173,6 +225,22 @@ pub fn print_summary(output: &MissionOutput, out: Option<&Path>) {
         "LAC: geometric {:.1}, rocks {:.1}, productivity {:.1}, total {:.1}",
         r.lac.geometric, r.lac.rocks, r.lac.productivity, r.lac.total
     );
+    if let Some(p) = &r.perception {
+        println!(
+            "perception ({} pairs at {} px, {}): recall {:.2}, precision {:.2}, centroid \
+             error median {:.3} m; per pair: render {:.0} ms, front end {:.0} ms median, \
+             {:.0} ms p99",
+            p.pairs,
+            p.width_px,
+            p.segmenter,
+            p.recall,
+            p.precision,
+            p.centroid_error_m.median,
+            p.render_ms.median,
+            p.front_end_ms.median,
+            p.front_end_ms.p99
+        );
+    }
     println!(
         "{:.1} s wall, {:.0}× real time",
         r.wall_s, r.realtime_factor
@@ -207,6 +275,10 @@ impl MissionArgs {
             mission_config,
             progress: true,
             coverage,
+            sensors: None,
+            segmenter: SegmenterKind::Geometric,
+            model: None,
+            half: false,
         }
     }
 }

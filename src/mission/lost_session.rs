@@ -9,6 +9,7 @@ use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::Localizer;
 use crate::sim::moon::Moon;
+use crate::sim::rendered_boulders::RenderedBoulders;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::{Isometry3, Point2};
 use segloc_maps::ObjectMap;
@@ -57,6 +58,19 @@ pub fn localize_session(
     seed: u64,
     progress: &dyn MissionProgress,
 ) -> Result<LocalizedSession, MissionError> {
+    localize_session_with(moon, config, prior_map, start_guess, seed, progress, None)
+}
+
+/// [`localize_session`], the boulders detected on rendered images by `rendered` when given.
+pub fn localize_session_with(
+    moon: &Moon,
+    config: &MissionConfig,
+    prior_map: &ObjectMap,
+    start_guess: ([f64; 3], [f64; 3]),
+    seed: u64,
+    progress: &dyn MissionProgress,
+    mut rendered: Option<&mut RenderedBoulders>,
+) -> Result<LocalizedSession, MissionError> {
     let (start, guess) = start_guess;
     let session = SessionConfig {
         duration_s: config.session_seconds()[1],
@@ -64,7 +78,8 @@ pub fn localize_session(
         initial_guess: Some(guess),
         ..config.session_2().clone()
     };
-    let mut sim = SessionSim::new(moon, &session, seed)?;
+    let mut sim =
+        SessionSim::with_rendered_boulders(moon, &session, seed, rendered.as_deref_mut())?;
     if config.prior_map_obstacles {
         sim.set_known_rocks_world(known_rocks(prior_map, config));
     }
@@ -83,6 +98,9 @@ pub fn localize_session(
         }
     }
     let log = sim.finish();
+    if let Some(e) = rendered.and_then(|r| r.take_error()) {
+        return Err(e.into());
+    }
     push_new_frames(&mut localizer, &log, &mut pushed)?;
     let result = localizer.finish()?;
     let attempts = scored_attempts(2, &result.attempts, &log, config);

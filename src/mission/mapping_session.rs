@@ -11,6 +11,7 @@ use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::view_bias::ViewBiasCalibration;
 use crate::localizer::Localizer;
 use crate::sim::moon::Moon;
+use crate::sim::rendered_boulders::RenderedBoulders;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::Isometry3;
 use segloc_maps::ObjectMap;
@@ -68,13 +69,26 @@ pub fn map_session(
     seed: u64,
     progress: &dyn MissionProgress,
 ) -> Result<MappedSession, MissionError> {
+    map_session_with(moon, config, start, seed, progress, None)
+}
+
+/// [`map_session`], the boulders detected on rendered images by `rendered` when given.
+pub fn map_session_with(
+    moon: &Moon,
+    config: &MissionConfig,
+    start: [f64; 3],
+    seed: u64,
+    progress: &dyn MissionProgress,
+    mut rendered: Option<&mut RenderedBoulders>,
+) -> Result<MappedSession, MissionError> {
     let session = SessionConfig {
         duration_s: config.seconds_per_session,
         start,
         initial_guess: None,
         ..config.session.clone()
     };
-    let mut sim = SessionSim::new(moon, &session, seed)?;
+    let mut sim =
+        SessionSim::with_rendered_boulders(moon, &session, seed, rendered.as_deref_mut())?;
     let mut localizer = Localizer::new(None, config.localizer.clone())?;
     let mut pushed = 0;
     while sim.step() {
@@ -89,6 +103,9 @@ pub fn map_session(
         }
     }
     let log = sim.finish();
+    if let Some(e) = rendered.and_then(|r| r.take_error()) {
+        return Err(e.into());
+    }
     push_new_frames(&mut localizer, &log, &mut pushed)?;
     let result = localizer.finish()?;
     let attempts = scored_attempts(1, &result.attempts, &log, config);

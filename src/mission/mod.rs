@@ -28,6 +28,7 @@ mod config_file;
 pub mod lost_session;
 pub mod mapping_session;
 pub mod maps;
+pub mod perception;
 pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod recording;
@@ -39,7 +40,9 @@ pub mod trace;
 use crate::graph::GraphError;
 use crate::localizer::{LocalizerConfig, LocalizerError};
 use crate::mapping::{RockGridConfig, ScoreError};
+use crate::perception::Segmenter;
 use crate::sim::moon::{Moon, MoonConfig, MoonError};
+use crate::sim::rendered_boulders::PerceptionSummary;
 use crate::sim::session::{SessionConfig, SessionError};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -69,6 +72,12 @@ pub enum MissionError {
     /// The maps could not be scored.
     #[error(transparent)]
     Score(#[from] ScoreError),
+    /// The renderer of `perception.sensors = "rendered"` could not be built.
+    #[error(transparent)]
+    Render(#[from] crate::sim::render::RenderError),
+    /// The perception front end failed.
+    #[error("perception: {0}")]
+    Perception(#[from] crate::perception::PerceptionError),
 }
 
 /// Parameters of a mission.
@@ -109,6 +118,8 @@ pub struct MissionConfig {
     /// Both sessions' localizers (session 2's fusion takes session 1's calibrated
     /// viewpoint bias).
     pub localizer: LocalizerConfig,
+    /// Where the boulder detections come from (sensor model or rendered images).
+    pub perception: perception::PerceptionConfig,
 }
 
 impl Default for MissionConfig {
@@ -135,6 +146,7 @@ impl Default for MissionConfig {
             rock_grid: RockGridConfig::default(),
             terrain_height: terrain_height::TerrainHeightConfig::default(),
             localizer: LocalizerConfig::default(),
+            perception: perception::PerceptionConfig::default(),
         }
     }
 }
@@ -239,7 +251,7 @@ impl MissionConfig {
                 return bad(&format!("{name}: {e}"));
             }
         }
-        Ok(())
+        self.perception.validate()
     }
 }
 
@@ -253,6 +265,8 @@ pub struct Sessions {
     pub one: mapping_session::MappedSession,
     /// Session 2: localized against session 1's map.
     pub two: lost_session::LocalizedSession,
+    /// How the front end did on both sessions' rendered frames (`None`: the sensor model).
+    pub perception: Option<PerceptionSummary>,
 }
 
 /// Drive both sessions of the mission on the moon of `seed` (no maps, no score).
@@ -261,8 +275,22 @@ pub fn drive_sessions(
     config: &MissionConfig,
     progress: &dyn MissionProgress,
 ) -> Result<Sessions, MissionError> {
+    drive_sessions_with(seed, config, progress, None)
+}
+
+/// [`drive_sessions`] with the segmenter of `perception.sensors = "rendered"` (default: the
+/// geometric one).
+pub fn drive_sessions_with(
+    seed: u64,
+    config: &MissionConfig,
+    progress: &dyn MissionProgress,
+    segmenter: Option<Box<dyn Segmenter>>,
+) -> Result<Sessions, MissionError> {
     config.validate()?;
     let moon = Moon::generate(&config.moon, seed)?;
+    let mut rendered = config
+        .perception
+        .rendered_boulders(&moon, seed, segmenter)?;
     let clear = |s: [f64; 3], session: &SessionConfig| {
         let min_rock = session.collision_min_rock_radius_m;
         let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
@@ -272,22 +300,31 @@ pub fn drive_sessions(
     let start_2 = clear(config.start_2, config.session_2());
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
-    let one = mapping_session::map_session(&moon, config, start_1, seed.wrapping_mul(2), progress)?;
+    let one = mapping_session::map_session_with(
+        &moon,
+        config,
+        start_1,
+        seed.wrapping_mul(2),
+        progress,
+        rendered.as_mut(),
+    )?;
     // session 2 and the maps fuse boulders with session 1's calibrated viewpoint bias
     let config = one.calibrated(config);
-    let two = lost_session::localize_session(
+    let two = lost_session::localize_session_with(
         &moon,
         &config,
         &one.map,
         (start_2, guess_2),
         seed.wrapping_mul(2).wrapping_add(1),
         progress,
+        rendered.as_mut(),
     )?;
     Ok(Sessions {
         moon,
         config,
         one,
         two,
+        perception: rendered.map(|r| r.summary()),
     })
 }
 
@@ -302,13 +339,25 @@ pub fn run_mission_with_progress(
     config: &MissionConfig,
     progress: &dyn MissionProgress,
 ) -> Result<MissionOutput, MissionError> {
+    run_mission_with(seed, config, progress, None)
+}
+
+/// [`run_mission_with_progress`] with the segmenter of `perception.sensors = "rendered"`
+/// (default: the geometric one).
+pub fn run_mission_with(
+    seed: u64,
+    config: &MissionConfig,
+    progress: &dyn MissionProgress,
+    segmenter: Option<Box<dyn Segmenter>>,
+) -> Result<MissionOutput, MissionError> {
     let started = Instant::now();
     let Sessions {
         moon,
         config,
         one: mut session_1,
         two: mut session_2,
-    } = drive_sessions(seed, config, progress)?;
+        perception,
+    } = drive_sessions_with(seed, config, progress, segmenter)?;
     let config = &config;
     progress.update(MissionStage::Mapping);
     let dz = terrain_height::height_corrections(
@@ -336,6 +385,7 @@ pub fn run_mission_with_progress(
     )?;
     let wall_s = started.elapsed().as_secs_f64();
     let mut output = report::assemble(seed, config, &session_1, &session_2, maps, truth, wall_s);
+    output.report.perception = perception;
     output.trace = MissionTrace::collect(
         &moon,
         &session_1.map,

@@ -9,6 +9,7 @@ use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::AttemptStatus;
 use crate::mapping::pictures::{height_error_png, rock_map_png, trajectory_png, Polyline};
 use crate::mapping::LacScore;
+use crate::sim::rendered_boulders::PerceptionSummary;
 use crate::sim::session::SessionLog;
 use nalgebra::Isometry3;
 use segloc_maps::LacGrid;
@@ -161,6 +162,10 @@ pub struct MissionReport {
     pub view_bias: ViewBiasReport,
     /// The configuration (its fusion's `view_bias_size_fraction` is the one used).
     pub config: MissionConfig,
+    /// The front end on the rendered frames (`perception.sensors = "rendered"`; absent with
+    /// the sensor model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub perception: Option<PerceptionSummary>,
 }
 
 /// The viewpoint-bias calibration's outcome.
@@ -305,6 +310,7 @@ pub(super) fn assemble(
                 boulders: one.view_bias.evidence().boulders,
             },
             config: config.clone(),
+            perception: None,
         },
         grid: maps.grid,
         truth,

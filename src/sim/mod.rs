@@ -19,6 +19,7 @@ pub mod boulder_field;
 pub mod crater;
 pub mod moon;
 pub mod render;
+pub mod rendered_boulders;
 pub mod rover;
 pub mod sensors;
 pub mod session;

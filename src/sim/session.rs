@@ -7,7 +7,9 @@
 //! pitch taken from the IMU's gravity direction; collisions are checked against the true
 //! world. Once a second (every `frame_period_ticks`) the cameras observe
 //! ([`crate::sim::sensors`]): boulder detections, ground points and lander points, which
-//! also feed the navigator's obstacle memory.
+//! also feed the navigator's obstacle memory. With [`SessionSim::with_rendered_boulders`]
+//! the boulder detections come instead from the perception front end on rendered stereo
+//! pairs ([`crate::sim::rendered_boulders`]).
 //!
 //! # Frames
 //! - *world*: the moon's frame, lander at the origin (LAC's frame);
@@ -39,6 +41,7 @@ use crate::planning::Pose2;
 use crate::sim::ipex::{CX_PX, CY_PX, FOCAL_PX};
 use crate::sim::ipex::{LUNAR_GRAVITY_MPS2, TICK_S};
 use crate::sim::moon::Moon;
+use crate::sim::rendered_boulders::RenderedBoulders;
 use crate::sim::rover::{Command, RoverState};
 use crate::sim::sensors::{cameras, observe, observe_far};
 use crate::sim::visual_odometry::{gravity_in_rover, VisualOdometry};
@@ -95,6 +98,9 @@ pub struct SessionSim<'a> {
     /// Rocks known beforehand, world frame: centre (x, y) and radius
     /// ([`SessionSim::set_known_rocks_world`]).
     known_rocks_world: Vec<(Point2<f64>, f64)>,
+    /// Boulders from rendered images instead of the sensor model, when set
+    /// ([`SessionSim::with_rendered_boulders`]).
+    rendered: Option<&'a mut RenderedBoulders>,
     log: SessionLog,
     total_ticks: usize,
     wall: f64,
@@ -115,6 +121,19 @@ pub use crate::localizer::frame_log::roll_pitch_from_gravity;
 impl<'a> SessionSim<'a> {
     /// Set up a session on `moon` (tick 0 logged: the rover at its start, one camera frame).
     pub fn new(moon: &'a Moon, config: &SessionConfig, seed: u64) -> Result<Self, SessionError> {
+        Self::with_rendered_boulders(moon, config, seed, None)
+    }
+
+    /// [`SessionSim::new`], the boulders of every camera frame detected by `rendered` (its
+    /// front end on rendered stereo pairs) instead of the sensor model when given; ground
+    /// and lander points still come from the sensor model, which draws its random numbers
+    /// as without it.
+    pub fn with_rendered_boulders(
+        moon: &'a Moon,
+        config: &SessionConfig,
+        seed: u64,
+        rendered: Option<&'a mut RenderedBoulders>,
+    ) -> Result<Self, SessionError> {
         config.validate()?;
         let started = Instant::now();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -152,6 +171,7 @@ impl<'a> SessionSim<'a> {
             planner_from_session: Isometry3::identity(),
             planner_history: Vec::new(),
             known_rocks_world: Vec::new(),
+            rendered,
             log: SessionLog {
                 seed,
                 config: config.clone(),
@@ -283,12 +303,17 @@ impl<'a> SessionSim<'a> {
         let Some(tick) = self.log.ticks.last().copied() else {
             return;
         };
-        let obs = observe(
+        let mut obs = observe(
             self.moon,
             &tick.world_from_rover,
             &self.config.sensors,
             &mut self.rng,
         );
+        if let Some(rendered) = self.rendered.as_deref_mut() {
+            let tick_index = self.log.ticks.len() - 1;
+            obs.boulders =
+                rendered.observe(&tick.world_from_rover, tick_index, &self.config.sensors);
+        }
         let est = self.planner_from_session * tick.session_from_rover;
         self.planner_history.push(self.planner_from_session);
         self.obstacles.start_frame();

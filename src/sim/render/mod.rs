@@ -16,13 +16,16 @@ pub mod icosphere;
 pub mod raster;
 pub mod renderer;
 pub mod scene;
+pub mod scoring;
 pub mod sensor;
 pub mod shadow;
 pub mod terrain_light;
 pub mod truth;
 
 pub use config::{RenderConfig, RenderError};
-pub use renderer::{rover_from_front_left_optical, RenderedView, Renderer};
+pub use renderer::{
+    rover_from_front_left_optical, rover_from_left_optical, RenderedView, Renderer,
+};
 pub use truth::{StereoFrame, VisibleRock, LANDER_INSTANCE};
 
 #[cfg(test)]

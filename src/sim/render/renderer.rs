@@ -21,7 +21,7 @@ use super::shadow::ShadowMap;
 use super::terrain_light::TerrainLight;
 use crate::perception::{GrayImage, StereoCamera};
 use crate::sim::moon::Moon;
-use crate::sim::sensors::cameras;
+use crate::sim::sensors::{cameras, Camera};
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
@@ -60,7 +60,13 @@ pub struct Renderer {
 /// `rover_from_left_camera` of the front pair, optical frame (x right, y down, z forward).
 pub fn rover_from_front_left_optical() -> Isometry3<f64> {
     let [front, _] = cameras();
-    front.rover_from_camera * sim_camera_from_optical()
+    rover_from_left_optical(&front)
+}
+
+/// `rover_from_left_camera` of any stereo pair of the sensor model ([`cameras`]), optical
+/// frame (x right, y down, z forward).
+pub fn rover_from_left_optical(camera: &Camera) -> Isometry3<f64> {
+    camera.rover_from_camera * sim_camera_from_optical()
 }
 
 /// The sim's camera frame (x forward, y left, z up) from the optical frame.

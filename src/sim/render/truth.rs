@@ -53,7 +53,13 @@ impl Renderer {
     /// Render the front stereo pair of a rover at `world_from_rover`, with the ground truth;
     /// `frame` draws the images' noise.
     pub fn render_stereo(&self, world_from_rover: &Isometry3<f64>, frame: u64) -> StereoFrame {
-        let world_from_left = world_from_rover * rover_from_front_left_optical();
+        self.render_stereo_from(&(world_from_rover * rover_from_front_left_optical()), frame)
+    }
+
+    /// Render the stereo pair whose left camera (optical frame) is at `world_from_left`, with
+    /// the ground truth; `frame` draws the images' noise.
+    pub fn render_stereo_from(&self, world_from_left: &Isometry3<f64>, frame: u64) -> StereoFrame {
+        let world_from_left = *world_from_left;
         let baseline = self.camera().baseline_m;
         let world_from_right = world_from_left * Translation3::new(baseline, 0.0, 0.0);
         let start = std::time::Instant::now();
