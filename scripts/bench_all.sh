@@ -42,6 +42,7 @@ sections=(
   "render-eval|scripts/bench_render_eval.sh"
   "sim|scripts/bench_sim.sh $(q --quick)"
   "mission|scripts/bench_mission.sh $(q --quick)"
+  "mission-rendered|scripts/bench_mission_rendered.sh $(q --quick)"
   "fuzz|scripts/fuzz.sh --write --cases $(q 2000 20000)"
 )
 if [[ $list == 1 ]]; then
