@@ -49,8 +49,8 @@ print("\n".join([
     "|---|---|---|---|---|---|---|---|---|",
     *rows, "",
     "Targets (issue 27, 300 s drives): ≤ 1 % of distance over 10 m, ≤ 0.1° per 10 m, no frame lost, ≤ 40 ms a frame — **not met**: "
-    "the rendered regolith is smooth near the rover and the corners sit on rocks and pebbles, so few features survive tracking "
-    "and the stereo match.",
+    "the odometry loses track on many frames (the near regolith is smooth, rocks and pebbles give most corners) and the "
+    "rotation then drifts; why each loss happens is not yet analysed.",
 ]))
 PY
 )
