@@ -243,7 +243,11 @@ pub fn adjust(
             let h = config.view_bias_step;
             let (below, _) = solve(f0 - h, Some(&solved))?;
             let (above, _) = solve(f0 + h, Some(&solved))?;
-            let costs = [below.graph().cost(), solved.graph().cost(), above.graph().cost()];
+            let costs = [
+                below.graph().cost(),
+                solved.graph().cost(),
+                above.graph().cost(),
+            ];
             if let Some((f, sigma)) = parabola_minimum(f0, h, costs)
                 .filter(|(f, sigma)| (0.0..=0.5).contains(f) && *sigma <= config.max_standard_error)
             {
