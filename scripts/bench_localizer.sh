@@ -5,6 +5,7 @@
 # section "localizer" of BENCHMARKS.md.
 # Usage: scripts/bench_localizer.sh [--quick] [--print] [SEED] [SECONDS]
 #   (defaults: 1 5000; quick: 1 600; --print: print the section instead of writing it)
+# Environment: LOCALIZER_CONFIG (a `LocalizerConfig` TOML for `segloc localize`; default: none).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0 print=0 args=()
@@ -23,8 +24,10 @@ dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 "$bin" sim export --seed "$seed" --session 2 --seconds "$seconds" \
   -o "$dir/drive.jsonl" --truth "$dir/truth.tum" --prior-map "$dir/prior.map.json" 2>/dev/null
+config_args=()
+[[ -n "${LOCALIZER_CONFIG:-}" ]] && config_args=(--localizer-config "$LOCALIZER_CONFIG")
 RAYON_NUM_THREADS=1 "$bin" localize --prior "$dir/prior.map.json" --frames "$dir/drive.jsonl" \
-  -o "$dir/out.tum" --json > "$dir/summary.json"
+  -o "$dir/out.tum" --json "${config_args[@]}" > "$dir/summary.json"
 section=$(python3 - "$dir" "$seed" "$seconds" <<'PY'
 import json, math, sys, datetime, subprocess
 d, seed, seconds = sys.argv[1], sys.argv[2], sys.argv[3]
