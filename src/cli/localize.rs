@@ -215,6 +215,7 @@ fn summary(
         "prior_from_odom": prior_from_odom,
         "per_frame_ms": stats(&plain),
         "attempt_ms": stats(&attempts),
+        "online_solves": session.online_solves,
         "landmarks_in_map": session.map.len(),
         "config": config,
     })

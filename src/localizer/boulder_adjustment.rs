@@ -243,7 +243,11 @@ pub fn adjust(
             let h = config.view_bias_step;
             let (below, _) = solve(f0 - h, Some(&solved))?;
             let (above, _) = solve(f0 + h, Some(&solved))?;
-            let costs = [below.graph.cost(), solved.graph.cost(), above.graph.cost()];
+            let costs = [
+                below.graph().cost(),
+                solved.graph().cost(),
+                above.graph().cost(),
+            ];
             if let Some((f, sigma)) = parabola_minimum(f0, h, costs)
                 .filter(|(f, sigma)| (0.0..=0.5).contains(f) && *sigma <= config.max_standard_error)
             {
@@ -257,9 +261,9 @@ pub fn adjust(
         report.view_bias_size_fraction = estimated.map(|(f, _)| f);
         report.view_bias_standard_error = estimated.map(|(_, s)| s);
         // poses and frames (a session placed in a prior map has its frame variable)
-        for key in adjusted.graph.keys().to_vec() {
-            if let Some(value) = solved.graph.value(key) {
-                adjusted.graph.set_value(key, value)?;
+        for key in adjusted.graph().keys().to_vec() {
+            if let Some(value) = solved.graph().value(key) {
+                adjusted.graph_mut().set_value(key, value)?;
             }
         }
     }
@@ -297,13 +301,13 @@ fn solve_with_boulders(
     let placed = place(log, poses, fusion);
     let added = add_boulders(&mut with_boulders, &placed, clusters, poses, fusion, config)?;
     if let Some(start) = start {
-        for key in with_boulders.graph.keys().to_vec() {
-            if let Some(value) = start.graph.value(key) {
-                with_boulders.graph.set_value(key, value)?;
+        for key in with_boulders.graph().keys().to_vec() {
+            if let Some(value) = start.graph().value(key) {
+                with_boulders.graph_mut().set_value(key, value)?;
             }
         }
     }
-    with_boulders.graph.optimize(&SolverConfig {
+    with_boulders.graph_mut().optimize(&SolverConfig {
         relative_tolerance: config.relative_tolerance,
         log_iterations: false,
         ..SolverConfig::default()
@@ -363,7 +367,7 @@ fn add_boulders(
         let Some((centroid, _)) = stereo_weighted(&detections, fusion) else {
             continue;
         };
-        graph.graph.add_point(boulders, centroid)?;
+        graph.graph_mut().add_point(boulders, centroid)?;
         for (frame, detection) in &corrected {
             let rover = detection.rover_position.unwrap_or_else(Point3::origin);
             let world = detection_information(&detection.p_world, &rover, &stereo_only);
@@ -377,7 +381,7 @@ fn add_boulders(
                 continue;
             };
             let information = (information + information.transpose()) * 0.5;
-            let factor = graph.graph.add_point_observation(
+            let factor = graph.graph_mut().add_point_observation(
                 *frame as u64,
                 boulders,
                 pose.inverse() * detection.p_world,
@@ -397,10 +401,10 @@ fn add_boulders(
 /// The current value of every variable of `graph`, in its variable order.
 fn graph_values(graph: &TrajectoryGraph) -> Vec<Isometry3<f64>> {
     graph
-        .graph
+        .graph()
         .keys()
         .iter()
-        .filter_map(|k| graph.graph.value(*k))
+        .filter_map(|k| graph.graph().value(*k))
         .collect()
 }
 
@@ -413,7 +417,7 @@ fn summarise(
     let values = graph_values(graph);
     let (mut outliers, mut sum2, mut inliers) = (0, 0.0, 0usize);
     for o in &added.observations {
-        let Some(f) = graph.graph.factors().get(o.factor) else {
+        let Some(f) = graph.graph().factors().get(o.factor) else {
             continue;
         };
         let r = f.residual(&values);

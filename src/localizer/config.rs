@@ -218,6 +218,38 @@ impl CalibrationConfig {
     }
 }
 
+/// How the trajectory graph is solved while driving ([`super::trajectory`]); the smoothed
+/// solve at the end of a session is a batch solve either way.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OnlineGraphConfig {
+    /// Bring the estimate to the optimum incrementally (`graph::IncrementalGraph`) after a
+    /// fix, a loop closure or a lander factor; false: re-solve the whole graph in batch.
+    pub incremental: bool,
+    /// Re-correct every odometry factor with the re-estimated bias (a batch re-solve) only
+    /// when the corrections the factors carry differ from the new estimate by more than this:
+    /// RMS over the steps of each step's change in units of its σ. Below it the new estimate
+    /// corrects the steps added from then on. 0: every time. See
+    /// docs/design/incremental-localizer.md.
+    pub recalibrate_sigma: f64,
+}
+
+impl Default for OnlineGraphConfig {
+    fn default() -> Self {
+        Self {
+            incremental: true,
+            recalibrate_sigma: 0.1,
+        }
+    }
+}
+
+impl OnlineGraphConfig {
+    /// Check the values are in range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        non_negative(&[("recalibrate_sigma", self.recalibrate_sigma)])
+    }
+}
+
 /// The factors besides odometry.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -314,6 +346,8 @@ pub struct LocalizerConfig {
     pub odometry: OdometryNoiseConfig,
     /// The odometry's bias calibration.
     pub calibration: CalibrationConfig,
+    /// How the trajectory graph is solved while driving.
+    pub online_graph: OnlineGraphConfig,
     /// Relocalization, gravity and lander factors.
     pub factors: FactorConfig,
     /// Loop closures of a mapping session.
@@ -338,6 +372,7 @@ impl Default for LocalizerConfig {
             gate: GateConfig::default(),
             odometry: OdometryNoiseConfig::default(),
             calibration: CalibrationConfig::default(),
+            online_graph: OnlineGraphConfig::default(),
             factors: FactorConfig::default(),
             loop_closures: LoopClosureConfig::default(),
             lander: LanderFitConfig::default(),
@@ -396,6 +431,9 @@ impl LocalizerConfig {
         self.calibration
             .validate()
             .map_err(|e| e.within("calibration"))?;
+        self.online_graph
+            .validate()
+            .map_err(|e| e.within("online_graph"))?;
         self.factors.validate().map_err(|e| e.within("factors"))?;
         self.loop_closures
             .validate()

@@ -283,7 +283,8 @@ fn associate(
         .map(|(i, n, _)| (i, n))
 }
 
-/// [`add_lander_factors`], and the graph re-optimised when any was added: whether one was.
+/// [`add_lander_factors`], and the graph brought to the optimum ([`TrajectoryGraph::update`]:
+/// incrementally for an online graph) when any was added: whether one was.
 pub fn add_lander_factors_optimized(
     graph: &mut TrajectoryGraph,
     log: &FrameLog,
@@ -293,7 +294,7 @@ pub fn add_lander_factors_optimized(
 ) -> Result<bool, GraphError> {
     let added = add_lander_factors(graph, log, frames, in_prior, config)? > 0;
     if added {
-        graph.optimize()?;
+        graph.update()?;
     }
     Ok(added)
 }

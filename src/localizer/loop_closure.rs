@@ -133,8 +133,8 @@ struct ClosureGate {
 
 impl ClosureGate {
     /// Gate a closure the relocalizer accepted, if any; admitted closures are added to the
-    /// graph (their attempts marked accepted) and the graph re-optimised. Returns whether
-    /// any was admitted.
+    /// graph (their attempts marked accepted) and the graph updated and recalibrated
+    /// (incrementally for an online graph). Returns whether any was admitted.
     fn submit(
         &mut self,
         closure: Option<Closure>,
@@ -162,9 +162,9 @@ impl ClosureGate {
             }
             graph.add_loop_closure(c.j, c.k, c.j_from_k, c.information, kernel)?;
         }
-        graph.optimize()?;
+        graph.update()?;
         if config.calibration.enabled {
-            graph.calibrate(config, config.calibration.rounds)?;
+            graph.recalibrate(config)?;
         }
         Ok(true)
     }

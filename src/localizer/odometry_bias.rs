@@ -129,6 +129,33 @@ pub fn estimate_bias(
     }
 }
 
+/// How far the corrections the odometry factors carry (`applied[i]` on `steps[i]`) are from
+/// the bias `estimate`: the root mean square over the steps of each corrected step's change
+/// (yaw and translation) in units of its σ (`weights[i]`). A change well under one σ per
+/// step is noise the factors absorb; 0 when there are no steps.
+pub fn correction_change_sigma(
+    steps: &[OdometryStep],
+    applied: &[OdometryBias],
+    weights: &[StepWeight],
+    estimate: &OdometryBias,
+) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for ((step, a), w) in steps.iter().zip(applied).zip(weights) {
+        let yaw = (estimate.yaw_drift_rad_per_m - a.yaw_drift_rad_per_m) * step.distance_m
+            + (estimate.yaw_scale_error - a.yaw_scale_error) * step.turned_rad;
+        let scale = 1.0 / (1.0 + estimate.scale_error) - 1.0 / (1.0 + a.scale_error);
+        let translation = scale * step.measured.translation.vector.norm();
+        sum += yaw * yaw * w.yaw + translation * translation * w.translation;
+        n += 1;
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,6 +223,28 @@ mod tests {
         }
         let end = truth.last().unwrap();
         assert!((pose.translation.vector - end.translation.vector).norm() < 0.01);
+    }
+
+    #[test]
+    fn a_correction_change_is_measured_in_sigmas() {
+        let (steps, _) = drive(&OdometryBias::default());
+        let weights = vec![
+            StepWeight {
+                yaw: 1e6,
+                translation: 1e4,
+            };
+            steps.len()
+        ];
+        let applied = vec![OdometryBias::default(); steps.len()];
+        let same = correction_change_sigma(&steps, &applied, &weights, &OdometryBias::default());
+        assert_eq!(same, 0.0);
+        // 1 % of scale on steps of 0.25-0.3 m against σ = 1 cm: about a quarter σ
+        let scaled = OdometryBias {
+            scale_error: 0.01,
+            ..OdometryBias::default()
+        };
+        let m = correction_change_sigma(&steps, &applied, &weights, &scaled);
+        assert!((0.1..0.3).contains(&m), "{m}");
     }
 
     #[test]

@@ -269,6 +269,13 @@ mod tests {
 
     #[test]
     fn the_gate_stops_a_wrong_fix_and_admits_two_that_agree() {
+        let config = LocalizerConfig::default();
+        // the batch graph, and the online one updated incrementally
+        gate_stops_a_wrong_fix(TrajectoryGraph::new());
+        gate_stops_a_wrong_fix(TrajectoryGraph::online(&config));
+    }
+
+    fn gate_stops_a_wrong_fix(mut graph: TrajectoryGraph) {
         // 40 frames straight along x, 0.3 m apart; the prior frame is the odometry frame
         // moved by (2, 1) m
         let mut log = FrameLog::default();
@@ -276,7 +283,6 @@ mod tests {
             log.push(&StreamFrame::new(k as f64, pose(0.3 * k as f64, 0.0, 0.0)));
         }
         let config = LocalizerConfig::default();
-        let mut graph = TrajectoryGraph::new();
         graph.extend(&log, &config).unwrap();
         let prior_from_odom = pose(2.0, 1.0, 0.0);
         let truth = |k: usize| prior_from_odom * log.frames[k].odom_from_rover;
@@ -298,7 +304,8 @@ mod tests {
                 .unwrap();
         }
         gate.last_fix_frame = Some(20);
-        graph.optimize().unwrap();
+        graph.update().unwrap();
+        graph.recalibrate(&config).unwrap();
         // a result 30 cm and 2° off the graph's prediction is held back
         let wrong = pose(0.3, 0.0, 2.0) * truth(30);
         assert!(gate.admit(candidate(30, wrong), &graph, &config).is_empty());

@@ -9,7 +9,7 @@ use super::loop_closure::{loop_closures, LoopCloser};
 use super::odometry_bias::OdometryBias;
 use super::relocalization::{attempt, PriorGate};
 use super::report::{AttemptRecord, AttemptStatus, FrameOutput, LocalizerEvent};
-use super::trajectory::TrajectoryGraph;
+use super::trajectory::{OnlineSolveCounts, TrajectoryGraph};
 use super::view_bias::ViewBiasCalibration;
 use super::{FrameInput, LocalizerConfig, LocalizerError};
 use crate::graph::RobustKernel;
@@ -54,6 +54,9 @@ pub struct SessionResult {
     pub adjusted_view_bias: Option<f64>,
     /// The fusion the map was made with.
     pub fusion: FusionConfig,
+    /// What the graph's solves while driving did (incremental updates, batches,
+    /// recalibrations); the solves of `finish` are not counted.
+    pub online_solves: OnlineSolveCounts,
 }
 
 /// A mapping session's loop closures while it drives.
@@ -103,17 +106,18 @@ impl Localizer {
             && config.loop_closures.enabled
             && config.loop_closures.online)
             .then(|| OnlineClosures {
-                graph: TrajectoryGraph::new(),
+                graph: TrajectoryGraph::online(&config),
                 view_bias: ViewBiasCalibration::new(&config.view_bias),
                 closer: LoopCloser::default(),
                 lander_done: 0,
             });
+        let graph = TrajectoryGraph::online(&config);
         Ok(Self {
             next_attempt_s: config.schedule.relocalize_period_s,
             first_fix_frame: prior.is_none().then_some(0),
             config,
             log: FrameLog::default(),
-            graph: TrajectoryGraph::new(),
+            graph,
             prior,
             online,
         })
@@ -239,7 +243,7 @@ impl Localizer {
             });
         }
         if changed {
-            self.graph.optimize()?;
+            self.graph.update()?;
         }
         if config.factors.lander && self.graph.odom_from_prior().is_some() {
             let frames = self.graph.frames;
@@ -254,7 +258,7 @@ impl Localizer {
         }
         if changed {
             if config.calibration.enabled {
-                self.graph.calibrate(config, config.calibration.rounds)?;
+                self.graph.recalibrate(config)?;
             }
             events.push(LocalizerEvent::Reoptimized);
         }
@@ -357,7 +361,12 @@ impl Localizer {
                 self.first_fix_frame,
                 &self.config,
             ),
-            None => finish_mapping(&self.log, &self.config),
+            None => {
+                let counts = self.online.map(|o| o.graph.counts).unwrap_or_default();
+                let mut result = finish_mapping(&self.log, &self.config)?;
+                result.online_solves = counts;
+                Ok(result)
+            }
         }
     }
 }
@@ -370,6 +379,7 @@ fn finish_localized(
     first_fix_frame: Option<usize>,
     config: &LocalizerConfig,
 ) -> Result<SessionResult, LocalizerError> {
+    let online_solves = graph.counts;
     graph.extend(log, config)?;
     graph.optimize()?;
     if config.factors.lander && graph.odom_from_prior().is_some() {
@@ -405,6 +415,7 @@ fn finish_localized(
         view_bias: None,
         adjusted_view_bias: None,
         fusion: config.fusion.clone(),
+        online_solves,
     })
 }
 
@@ -483,6 +494,7 @@ fn finish_mapping(
         view_bias: Some(view_bias),
         adjusted_view_bias,
         fusion,
+        online_solves: OnlineSolveCounts::default(),
     })
 }
 
