@@ -224,18 +224,31 @@ impl CalibrationConfig {
 #[serde(default, deny_unknown_fields)]
 pub struct OnlineGraphConfig {
     /// Bring the estimate to the optimum incrementally (`graph::IncrementalGraph`) after a
-    /// fix, a loop closure or a lander factor; false: re-solve the whole graph in batch.
+    /// fix, a loop closure or a lander factor (milliseconds a fix instead of a batch
+    /// re-solve that grows with the drive); false (the default): re-solve in batch, which
+    /// keeps the online estimate more accurate on the real streams and in the mission (see
+    /// docs/design/incremental-localizer.md).
     pub incremental: bool,
     /// Re-correct every odometry factor with the re-estimated bias (a batch re-solve) only
     /// when the corrections the factors carry differ from the new estimate by more than this:
     /// RMS over the steps of each step's change in units of its σ. Below it the new estimate
-    /// corrects the steps added from then on. 0: every time. See
+    /// corrects the steps added from then on. 0 (the default): every time. See
     /// docs/design/incremental-localizer.md.
     pub recalibrate_sigma: f64,
 }
 
 impl Default for OnlineGraphConfig {
     fn default() -> Self {
+        Self {
+            incremental: false,
+            recalibrate_sigma: 0.0,
+        }
+    }
+}
+
+impl OnlineGraphConfig {
+    /// The fast online mode: incremental updates, the odometry re-corrected only past 0.1 σ.
+    pub fn fast() -> Self {
         Self {
             incremental: true,
             recalibrate_sigma: 0.1,

@@ -269,7 +269,8 @@ mod tests {
 
     #[test]
     fn the_gate_stops_a_wrong_fix_and_admits_two_that_agree() {
-        let config = LocalizerConfig::default();
+        let mut config = LocalizerConfig::default();
+        config.online_graph = crate::localizer::config::OnlineGraphConfig::fast();
         // the batch graph, and the online one updated incrementally
         gate_stops_a_wrong_fix(TrajectoryGraph::new());
         gate_stops_a_wrong_fix(TrajectoryGraph::online(&config));

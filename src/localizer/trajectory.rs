@@ -579,6 +579,7 @@ impl Default for TrajectoryGraph {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::localizer::config::OnlineGraphConfig;
     use segloc_maps::frames::StreamFrame;
 
     #[test]
@@ -673,6 +674,7 @@ mod tests {
     fn the_incremental_estimate_is_the_batch_optimum() {
         let (log, truth) = drifting_drive();
         let mut config = LocalizerConfig::default();
+        config.online_graph = OnlineGraphConfig::fast();
         // the bias re-estimated at every fix but never re-applied to the old factors: the
         // online graph and a batch solve of the same factors must agree
         config.online_graph.recalibrate_sigma = 1e9;
@@ -695,6 +697,7 @@ mod tests {
     fn a_stale_correction_is_reapplied_past_the_threshold() {
         let (log, truth) = drifting_drive();
         let mut config = LocalizerConfig::default();
+        config.online_graph = OnlineGraphConfig::fast();
         config.online_graph.recalibrate_sigma = 0.0;
         let always = drive_online(&config, &log, &truth);
         assert!(always.counts.recalibrations >= 25, "{:?}", always.counts);
