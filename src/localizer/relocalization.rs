@@ -269,8 +269,10 @@ mod tests {
 
     #[test]
     fn the_gate_stops_a_wrong_fix_and_admits_two_that_agree() {
-        let mut config = LocalizerConfig::default();
-        config.online_graph = crate::localizer::config::OnlineGraphConfig::fast();
+        let config = LocalizerConfig {
+            online_graph: crate::localizer::config::OnlineGraphConfig::fast(),
+            ..LocalizerConfig::default()
+        };
         // the batch graph, and the online one updated incrementally
         gate_stops_a_wrong_fix(TrajectoryGraph::new());
         gate_stops_a_wrong_fix(TrajectoryGraph::online(&config));

@@ -673,11 +673,15 @@ mod tests {
     #[test]
     fn the_incremental_estimate_is_the_batch_optimum() {
         let (log, truth) = drifting_drive();
-        let mut config = LocalizerConfig::default();
-        config.online_graph = OnlineGraphConfig::fast();
         // the bias re-estimated at every fix but never re-applied to the old factors: the
         // online graph and a batch solve of the same factors must agree
-        config.online_graph.recalibrate_sigma = 1e9;
+        let config = LocalizerConfig {
+            online_graph: OnlineGraphConfig {
+                recalibrate_sigma: 1e9,
+                ..OnlineGraphConfig::fast()
+            },
+            ..LocalizerConfig::default()
+        };
         let online = drive_online(&config, &log, &truth);
         assert!(
             online.counts.incremental + online.counts.relinearized >= 20,
@@ -696,9 +700,13 @@ mod tests {
     #[test]
     fn a_stale_correction_is_reapplied_past_the_threshold() {
         let (log, truth) = drifting_drive();
-        let mut config = LocalizerConfig::default();
-        config.online_graph = OnlineGraphConfig::fast();
-        config.online_graph.recalibrate_sigma = 0.0;
+        let mut config = LocalizerConfig {
+            online_graph: OnlineGraphConfig {
+                recalibrate_sigma: 0.0,
+                ..OnlineGraphConfig::fast()
+            },
+            ..LocalizerConfig::default()
+        };
         let always = drive_online(&config, &log, &truth);
         assert!(always.counts.recalibrations >= 25, "{:?}", always.counts);
         config.online_graph.recalibrate_sigma = 0.1;
