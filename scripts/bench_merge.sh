@@ -36,29 +36,23 @@ w("Each agent is one traverse moved by its own random rigid transform (any yaw, 
   "the statistics of a real map, but no rigid motion matches them to anything, so they must be reported "
   "disconnected.")
 w("")
-def block(r, title, cmd):
-    w(f"### {title}")
-    w("")
-    w(f"`{cmd}`")
-    w("")
-    w(f"- real agents placed: {r['placed']}/{r['agents']} (reference excluded); placed outside 1 cm or 0.1°: **{r['placed_outside_1cm_0p1deg']}**")
-    w(f"- decoys placed: **{r['decoys_placed']}/{r['decoys']}**")
-    te, re_ = r['translation_error_m'], r['rotation_error_deg']
-    w(f"- placement error: translation mean {100*te['mean']:.2f} cm, median {100*te['median']:.2f} cm, max {100*te['max']:.2f} cm; rotation mean {re_['mean']:.3f}°, max {re_['max']:.3f}°")
-    t = r['time_ms']
-    w(f"- merge time: median {t['median']:.0f} ms, max {t['max']:.0f} ms; merged landmarks {r['trials'][0]['landmarks']} (fused from ≥ 2 maps: {r['trials'][0]['fused']}) in the first trial")
-    w("")
-block(m5, "5 agents + 1 decoy, 100 trials", "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 1")
-block(m5b, "5 agents + 1 decoy, 100 trials, another seed", "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 3")
-w("Viewpoint bias (default): each detection is pushed 0.8 cm away from the rover along its line of sight before "
-  "fusing, each landmark's covariance gains (1 cm)² along its mean line of sight, and a pairwise transform with "
-  "fewer than 10 inliers must fit to 2 cm ([design note](docs/design/viewpoint-bias.md)).")
+w("| run | agents placed | outside 1 cm / 0.1° | decoys placed | translation error mean / median / max (cm) | rotation mean / max | merge time median / max (ms) | landmarks (fused from ≥ 2), first trial |")
+w("|---|---|---|---|---|---|---|---|")
+def row(r, cmd):
+    te, re_, t = r['translation_error_m'], r['rotation_error_deg'], r['time_ms']
+    w(f"| `{cmd}` | {r['placed']}/{r['agents']} | **{r['placed_outside_1cm_0p1deg']}** | **{r['decoys_placed']}/{r['decoys']}** "
+      f"| {100*te['mean']:.2f} / {100*te['median']:.2f} / {100*te['max']:.2f} | {re_['mean']:.3f}° / {re_['max']:.3f}° "
+      f"| {t['median']:.0f} / {t['max']:.0f} | {r['trials'][0]['landmarks']} ({r['trials'][0]['fused']}) |")
+row(m5, "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 1")
+row(m5b, "segloc eval merge --agents 5 --decoys 1 --trials 100 --seed 3")
+row(m17, "segloc eval merge --agents 17 --decoys 2 --trials 3 --seed 2")
 w("")
-block(m17, "All 17 traverses + 2 decoys, 3 trials", "segloc eval merge --agents 17 --decoys 2 --trials 3 --seed 2")
+w("Agents placed exclude the reference map. Viewpoint bias (default): each detection is pushed 0.8 cm away from the "
+  "rover along its line of sight before fusing, each landmark's covariance gains (1 cm)² along its mean line of sight, "
+  "and a pairwise transform with fewer than 10 inliers must fit to 2 cm ([design note](docs/design/viewpoint-bias.md)).")
+w("")
 rk = json.load(open(f"{out}/merge_rocks.json"))
-w("### Rock map of the merged map")
-w("")
-w("`segloc eval merge --rock-map --seed 2`: all 17 traverses merged (each from its own random frame), the merged "
+w("**Rock map of the merged map**: `segloc eval merge --rock-map --seed 2`: all 17 traverses merged (each from its own random frame), the merged "
   "landmarks turned into a LAC rock grid (`mapping::rock_grid`, the same method for every map) and scored against "
   "the ground truth, beside each single traverse's map made the same way.")
 w("")
