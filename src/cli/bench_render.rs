@@ -7,6 +7,7 @@ use super::print_json;
 use anyhow::{bail, Result};
 use clap::Args;
 use segloc::eval::render_front_end::drive;
+use segloc::sim::render::scoring::quantile;
 use segloc::sim::render::{RenderConfig, Renderer};
 use serde_json::json;
 use std::time::Instant;
@@ -26,14 +27,6 @@ pub struct BenchRenderArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
-}
-
-fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len().max(1) - 1) as f64 * q).round() as usize)
-        .copied()
-        .unwrap_or(f64::NAN)
 }
 
 /// Run `segloc bench render`.

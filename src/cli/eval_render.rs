@@ -10,6 +10,7 @@ use segloc::eval::render_front_end::{
     evaluate_render, summarize, FrameScore, MatchConfig, RenderEvalOptions, Summary,
 };
 use segloc::perception::{FrontEnd, GeometricSegmenter};
+use segloc::sim::render::scoring::quantile;
 use segloc::sim::render::RenderConfig;
 use serde_json::json;
 use std::path::PathBuf;
@@ -115,13 +116,6 @@ pub fn run(args: &EvalRenderArgs) -> Result<i32> {
     report(args, &seeds, &scores, &options.matching)
 }
 
-fn median(mut v: Vec<f64>, q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len().max(1) - 1) as f64 * q).round() as usize)
-        .copied()
-        .unwrap_or(f64::NAN)
-}
-
 fn report(
     args: &EvalRenderArgs,
     seeds: &[u64],
@@ -148,8 +142,10 @@ fn report(
             (sun, summarize(&f, everything, matching))
         })
         .collect();
-    let render_ms = median(scores.iter().map(|s| s.render_ms).collect(), 0.5);
-    let fe = |q| median(scores.iter().map(|s| s.front_end_ms).collect(), q);
+    let render: Vec<f64> = scores.iter().map(|s| s.render_ms).collect();
+    let render_ms = quantile(&render, 0.5);
+    let front_end: Vec<f64> = scores.iter().map(|s| s.front_end_ms).collect();
+    let fe = |q| quantile(&front_end, q);
     if args.json {
         print_json(&json!({
             "seeds": seeds, "sun_deg": args.sun_deg, "matching": matching,

@@ -11,7 +11,7 @@
 
 use crate::perception::{FrontEnd, PerceptionError};
 use crate::sim::moon::Moon;
-use crate::sim::render::scoring::{score_frame, summarize, FrameScore, MatchConfig};
+use crate::sim::render::scoring::{score_frame, summarize, FrameScore, MatchConfig, Quantiles};
 use crate::sim::render::{rover_from_left_optical, RenderConfig, RenderError, Renderer};
 use crate::sim::sensors::{cameras, BoulderObservation, SensorConfig};
 use nalgebra::{Isometry3, Point3};
@@ -29,17 +29,6 @@ pub struct RenderedBoulders {
     scores: Vec<FrameScore>,
     /// The first front-end failure (its pair gave no boulders).
     error: Option<PerceptionError>,
-}
-
-/// Median and tail of a set of values.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Quantiles {
-    /// 50th percentile.
-    pub median: f64,
-    /// 90th percentile.
-    pub p90: f64,
-    /// 99th percentile.
-    pub p99: f64,
 }
 
 /// How the front end did on the mission's rendered frames (the mission report's
@@ -151,14 +140,14 @@ impl RenderedBoulders {
     pub fn summary(&self) -> PerceptionSummary {
         let frames: Vec<&FrameScore> = self.scores.iter().collect();
         let all = summarize(&frames, (0.0, f64::INFINITY), &self.matching);
-        let mut errors: Vec<f64> = frames
+        let errors: Vec<f64> = frames
             .iter()
             .flat_map(|f| f.rocks.iter())
             .filter(|r| r.counted && r.range_m <= self.matching.max_range_m)
             .filter_map(|r| r.error_m)
             .collect();
-        let mut render: Vec<f64> = frames.iter().map(|f| f.render_ms).collect();
-        let mut front_end: Vec<f64> = frames.iter().map(|f| f.front_end_ms).collect();
+        let render: Vec<f64> = frames.iter().map(|f| f.render_ms).collect();
+        let front_end: Vec<f64> = frames.iter().map(|f| f.front_end_ms).collect();
         PerceptionSummary {
             segmenter: self.front_end.segmenter_name(),
             width_px: self.renderer.config().width(),
@@ -167,27 +156,10 @@ impl RenderedBoulders {
             detections: all.detections,
             recall: all.recall,
             precision: all.precision,
-            centroid_error_m: quantiles(&mut errors),
-            render_ms: quantiles(&mut render),
-            front_end_ms: quantiles(&mut front_end),
+            centroid_error_m: Quantiles::of(&errors),
+            render_ms: Quantiles::of(&render),
+            front_end_ms: Quantiles::of(&front_end),
         }
-    }
-}
-
-/// Median, p90 and p99 of `values` (NaN when empty), sorting them.
-fn quantiles(values: &mut [f64]) -> Quantiles {
-    values.sort_by(f64::total_cmp);
-    let at = |q: f64| {
-        if values.is_empty() {
-            f64::NAN
-        } else {
-            values[((values.len() - 1) as f64 * q).round() as usize]
-        }
-    };
-    Quantiles {
-        median: at(0.5),
-        p90: at(0.9),
-        p99: at(0.99),
     }
 }
 
@@ -196,14 +168,6 @@ mod tests {
     use super::*;
     use crate::perception::{FrontEndConfig, GeometricSegmenter};
     use crate::sim::moon::MoonConfig;
-
-    #[test]
-    fn quantiles_of_nothing_are_nan() {
-        let q = quantiles(&mut []);
-        assert!(q.median.is_nan() && q.p99.is_nan());
-        let q = quantiles(&mut [3.0, 1.0, 2.0]);
-        assert_eq!((q.median, q.p90, q.p99), (2.0, 3.0, 3.0));
-    }
 
     #[test]
     fn both_pairs_are_rendered_and_detections_land_in_the_rover_frame() {

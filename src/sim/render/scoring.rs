@@ -98,6 +98,48 @@ pub struct FrameScore {
     pub front_end_ms: f64,
 }
 
+/// Median and tail of a set of values (timings, centroid errors).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Quantiles {
+    /// 50th percentile.
+    pub median: f64,
+    /// 90th percentile.
+    pub p90: f64,
+    /// 99th percentile.
+    pub p99: f64,
+}
+
+impl Quantiles {
+    /// The [`quantile`]s 0.5, 0.9 and 0.99 of `values` (NaN when empty), sorting once.
+    pub fn of(values: &[f64]) -> Quantiles {
+        let sorted = sorted(values);
+        Quantiles {
+            median: quantile_of_sorted(&sorted, 0.5),
+            p90: quantile_of_sorted(&sorted, 0.9),
+            p99: quantile_of_sorted(&sorted, 0.99),
+        }
+    }
+}
+
+/// The `q` quantile (0–1) of `values`: the value at rank `round(q · (n − 1))` of the sorted
+/// values; NaN when empty.
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    quantile_of_sorted(&sorted(values), q)
+}
+
+fn sorted(values: &[f64]) -> Vec<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+fn quantile_of_sorted(sorted: &[f64], q: f64) -> f64 {
+    sorted
+        .get(((sorted.len().max(1) - 1) as f64 * q).round() as usize)
+        .copied()
+        .unwrap_or(f64::NAN)
+}
+
 /// Score `boulders` (the front end's output on `frame`) against the frame's truth.
 pub fn score_frame(frame: &StereoFrame, boulders: &[Boulder], config: &MatchConfig) -> FrameScore {
     let eye = Point3::from(frame.world_from_left.translation.vector);
@@ -249,13 +291,7 @@ pub fn summarize(frames: &[&FrameScore], band: (f64, f64), config: &MatchConfig)
             a as f64 / b as f64
         }
     };
-    let quantile = |q: f64| {
-        if errors.is_empty() {
-            f64::NAN
-        } else {
-            errors[((errors.len() - 1) as f64 * q).round() as usize]
-        }
-    };
+    let quantile = |q: f64| quantile_of_sorted(&errors, q);
     Summary {
         frames: frames.len(),
         rocks: rocks.len(),
@@ -273,6 +309,16 @@ pub fn summarize(frames: &[&FrameScore], band: (f64, f64), config: &MatchConfig)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn quantiles_of_nothing_are_nan() {
+        let q = Quantiles::of(&[]);
+        assert!(q.median.is_nan() && q.p99.is_nan());
+        let q = Quantiles::of(&[3.0, 1.0, 2.0]);
+        assert_eq!((q.median, q.p90, q.p99), (2.0, 3.0, 3.0));
+        assert_eq!(quantile(&[4.0, 1.0, 3.0, 2.0], 0.5), 3.0);
+        assert!(quantile(&[], 0.9).is_nan());
+    }
 
     fn rock(range_m: f64, error_m: Option<f64>) -> RockOutcome {
         RockOutcome {
