@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use nalgebra::Point3;
-use segloc::perception::lac::{ImageKind, LacRecording};
+use segloc::perception::lac::LacRecording;
 use segloc::perception::onnx::{shipped_model, LearnedSegmenter, OnnxSegmenter};
 use segloc::perception::{
     overlay::write_overlay, read_gray_png, write_gray_png, DisparityMap, FrontEnd, FrontEndConfig,
@@ -220,15 +220,7 @@ fn detect_lac(args: &DetectArgs, front_end: &mut FrontEnd, lac: &Path) -> Result
         bail!("--lac needs -o <detections.csv>");
     };
     let recording = LacRecording::open(lac)?;
-    let (left_cam, right_cam) = ("FrontLeft", "FrontRight");
-    let frames = recording.stereo_frames(left_cam, right_cam);
-    if frames.is_empty() {
-        bail!(
-            "{}: no frame has both {left_cam} and {right_cam} grayscale images (cameras: {:?})",
-            lac.display(),
-            recording.cameras()
-        );
-    }
+    let frames = recording.front_stereo_frames()?;
     let session = lac
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -244,12 +236,7 @@ fn detect_lac(args: &DetectArgs, front_end: &mut FrontEnd, lac: &Path) -> Result
     let mut total_ms = 0.0;
     let mut boulders = 0;
     for &frame in &frames {
-        let (Some(left), Some(right)) = (
-            recording.image(left_cam, ImageKind::Grayscale, frame)?,
-            recording.image(right_cam, ImageKind::Grayscale, frame)?,
-        ) else {
-            continue;
-        };
+        let (left, right) = recording.front_pair(frame)?;
         let result = front_end
             .process(&left, &right)
             .with_context(|| format!("{} frame {frame}", lac.display()))?;

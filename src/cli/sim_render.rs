@@ -13,7 +13,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use segloc::mission::mapping_session::map_session;
 use segloc::mission::{drive_sessions, MissionConfig, Silent};
-use segloc::perception::lac::{ImageKind, Imu, LacFrame, LacWriter};
+use segloc::perception::lac::{ImageKind, Imu, LacFrame, LacWriter, FRONT_LEFT, FRONT_RIGHT};
 use segloc::perception::write_gray_png;
 use segloc::sim::ipex::TICK_S;
 use segloc::sim::moon::Moon;
@@ -217,8 +217,8 @@ fn write_frames(
                     gyro: [0.0; 3],
                 }),
             });
-            writer.add_image("FrontLeft", ImageKind::Grayscale, tick as u64, frame.left);
-            writer.add_image("FrontRight", ImageKind::Grayscale, tick as u64, frame.right);
+            writer.add_image(FRONT_LEFT, ImageKind::Grayscale, tick as u64, frame.left);
+            writer.add_image(FRONT_RIGHT, ImageKind::Grayscale, tick as u64, frame.right);
         }
     }
     segloc_maps::write_tum(&dir.join("truth.tum"), &truth)?;

@@ -67,6 +67,11 @@ impl ImageKind {
     }
 }
 
+/// The front stereo pair's left camera in a recording.
+pub const FRONT_LEFT: &str = "FrontLeft";
+/// The front stereo pair's right camera in a recording.
+pub const FRONT_RIGHT: &str = "FrontRight";
+
 /// A `.lac` recording held in memory (images stay PNG-encoded until asked for).
 #[derive(Clone, Debug)]
 pub struct LacRecording {
@@ -224,6 +229,36 @@ impl LacRecording {
             kind.dir()
         ));
         decode_gray_png(bytes, &member).map(Some)
+    }
+
+    /// The frames at which both front cameras ([`FRONT_LEFT`], [`FRONT_RIGHT`]) have a
+    /// grayscale image, ascending; an error naming the recording's cameras when there is none.
+    pub fn front_stereo_frames(&self) -> Result<Vec<u64>, PerceptionError> {
+        let frames = self.stereo_frames(FRONT_LEFT, FRONT_RIGHT);
+        if frames.is_empty() {
+            return Err(PerceptionError::Archive {
+                path: self.path.clone(),
+                message: format!(
+                    "no frame has both {FRONT_LEFT} and {FRONT_RIGHT} grayscale images \
+                     (cameras: {:?})",
+                    self.cameras()
+                ),
+            });
+        }
+        Ok(frames)
+    }
+
+    /// The front stereo pair's grayscale images (left, right) at `frame`; an error naming
+    /// the missing one.
+    pub fn front_pair(&self, frame: u64) -> Result<(GrayImage, GrayImage), PerceptionError> {
+        let image = |camera: &str| {
+            self.image(camera, ImageKind::Grayscale, frame)?
+                .ok_or_else(|| PerceptionError::Archive {
+                    path: self.path.clone(),
+                    message: format!("frame {frame} has no {camera} grayscale image"),
+                })
+        };
+        Ok((image(FRONT_LEFT)?, image(FRONT_RIGHT)?))
     }
 
     /// The `frames.csv` row of `frame`, if any.

@@ -3,7 +3,7 @@
 //! baseline, `tick_s`) and, as ground truth, `truth.tum` (`world_from_left_camera`, whose
 //! times are the frames' times).
 
-use super::sequence::{check_times, FrameImages, SequenceFrame, StereoSequence};
+use super::sequence::{check_times, first_from_camera, FrameImages, SequenceFrame, StereoSequence};
 use super::VoError;
 use crate::graph::StereoCalibration;
 use nalgebra::Isometry3;
@@ -123,7 +123,8 @@ impl StereoSequence {
             for (frame, (t, _)) in frames.iter_mut().zip(&poses) {
                 frame.time_s = *t;
             }
-            Some(first_from_camera(&poses))
+            let world_from_camera: Vec<Isometry3<f64>> = poses.iter().map(|(_, p)| *p).collect();
+            Some(first_from_camera(&world_from_camera))
         } else {
             None
         };
@@ -132,21 +133,8 @@ impl StereoSequence {
             calibration,
             frames,
             truth,
-            lac: None,
         })
     }
-}
-
-/// World poses re-expressed in the first pose's frame.
-fn first_from_camera(world_from_camera: &[(f64, Isometry3<f64>)]) -> Vec<Isometry3<f64>> {
-    let Some((_, first)) = world_from_camera.first() else {
-        return Vec::new();
-    };
-    let first_inv = first.inverse();
-    world_from_camera
-        .iter()
-        .map(|(_, p)| first_inv * p)
-        .collect()
 }
 
 #[cfg(test)]

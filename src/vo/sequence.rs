@@ -6,13 +6,14 @@
 
 use super::VoError;
 use crate::graph::StereoCalibration;
-use crate::perception::lac::{ImageKind, LacRecording};
+use crate::perception::lac::{LacRecording, FRONT_LEFT, FRONT_RIGHT};
 use crate::perception::{read_gray_png, GrayImage};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Where one stereo frame's images are.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum FrameImages {
     /// Two PNG files.
     Files {
@@ -21,15 +22,17 @@ pub enum FrameImages {
         /// Right image.
         right: PathBuf,
     },
-    /// A frame of the sequence's `.lac` recording (cameras `FrontLeft` / `FrontRight`).
+    /// A frame of a `.lac` recording (its front stereo pair).
     Lac {
+        /// The recording, shared by the sequence's frames.
+        recording: Arc<LacRecording>,
         /// The recording's frame number.
         frame: u64,
     },
 }
 
 /// One stereo frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct SequenceFrame {
     /// Time, seconds.
     pub time_s: f64,
@@ -46,8 +49,6 @@ pub struct StereoSequence {
     pub frames: Vec<SequenceFrame>,
     /// Ground truth `first_from_camera` per frame, when the sequence has it.
     pub truth: Option<Vec<Isometry3<f64>>>,
-    /// The recording that [`FrameImages::Lac`] frames come from.
-    pub lac: Option<LacRecording>,
 }
 
 fn read(path: &Path) -> Result<String, VoError> {
@@ -231,7 +232,6 @@ impl StereoSequence {
             calibration,
             frames,
             truth,
-            lac: None,
         })
     }
 
@@ -241,32 +241,31 @@ impl StereoSequence {
             path: PathBuf::new(),
             message: format!("no frame {k}"),
         })?;
-        match (&frame.images, &self.lac) {
-            (FrameImages::Files { left, right }, _) => Ok([
+        match &frame.images {
+            FrameImages::Files { left, right } => Ok([
                 (read_gray_png(left)?, left.clone()),
                 (read_gray_png(right)?, right.clone()),
             ]),
-            (FrameImages::Lac { frame }, Some(recording)) => {
-                let image = |camera: &str| -> Result<(GrayImage, PathBuf), VoError> {
-                    let name = recording
+            FrameImages::Lac { recording, frame } => {
+                let (left, right) = recording.front_pair(*frame)?;
+                let name = |camera: &str| {
+                    recording
                         .path
-                        .join(format!("{camera}/grayscale/frame {frame}"));
-                    match recording.image(camera, ImageKind::Grayscale, *frame)? {
-                        Some(image) => Ok((image, name)),
-                        None => Err(VoError::Sequence {
-                            path: recording.path.clone(),
-                            message: format!("frame {frame} has no {camera} image"),
-                        }),
-                    }
+                        .join(format!("{camera}/grayscale/frame {frame}"))
                 };
-                Ok([image("FrontLeft")?, image("FrontRight")?])
+                Ok([(left, name(FRONT_LEFT)), (right, name(FRONT_RIGHT))])
             }
-            (FrameImages::Lac { .. }, None) => Err(VoError::Sequence {
-                path: PathBuf::new(),
-                message: "a .lac frame without its recording".into(),
-            }),
         }
     }
+}
+
+/// World poses re-expressed in the first pose's frame (`first_from_camera`); empty for none.
+pub(crate) fn first_from_camera(world_from_camera: &[Isometry3<f64>]) -> Vec<Isometry3<f64>> {
+    let Some(first) = world_from_camera.first() else {
+        return Vec::new();
+    };
+    let first_inv = first.inverse();
+    world_from_camera.iter().map(|p| first_inv * p).collect()
 }
 
 /// Checks that frame times strictly increase; `path` names the sequence.
