@@ -90,8 +90,7 @@ pub fn read_rock_mask(
     let (rows, columns, rock) = if is_png {
         read_png_mask(path)?
     } else {
-        let (rows, columns, values) = read_csv_raster(path, parse_mask_value)?;
-        (rows, columns, values)
+        read_csv_raster(path, parse_mask_value)?
     };
     let raster = RockRaster {
         rows,

@@ -205,6 +205,8 @@ struct GridSummary {
     rock_cells: usize,
     cell_size_m: f64,
     shape: (usize, usize),
+    /// Whether the rocks' heights came from a height layer (else all 0).
+    heights: bool,
 }
 
 fn from_grid(a: &FromGridArgs) -> Result<i32> {
@@ -228,7 +230,7 @@ fn from_grid(a: &FromGridArgs) -> Result<i32> {
             "output": a.output, "landmarks": map.len(), "rock_cells": summary.rock_cells,
             "cell_size_m": summary.cell_size_m, "cells": [summary.shape.0, summary.shape.1],
             "cells_per_side": (summary.shape.0 == summary.shape.1).then_some(summary.shape.0),
-            "heights": !map.notes.contains_key("heights"), "session": map.session,
+            "heights": summary.heights, "session": map.session,
         }))?;
     } else {
         println!(
@@ -261,6 +263,7 @@ fn lac_grid_map(a: &FromGridArgs, config: &GridRocksConfig) -> Result<(ObjectMap
         rock_cells: grid.rock_count(),
         cell_size_m: grid.cell_size_m,
         shape: (grid.cells_per_side, grid.cells_per_side),
+        heights: true,
     };
     Ok((map, summary))
 }
@@ -289,6 +292,7 @@ fn raster_map(
         rock_cells: raster.rock_count(),
         cell_size_m,
         shape: (raster.rows, raster.columns),
+        heights: raster.has_heights(),
     };
     Ok((map, summary))
 }
