@@ -236,10 +236,9 @@ impl Renderer {
                 // the sun's side baked (smooth normal, shadow map); the viewing angle from
                 // the triangle's own normal
                 let mu0 = self.terrain_light.at(p.x, p.y);
-                let f = self.face_normals[triangle as usize];
-                let mu = view_cos(&Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64));
+                let mu = view_cos(&self.triangle_normal(triangle));
                 let direct = if mu0 > 0.0 {
-                    2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
+                    lunar_lambert(mu0, mu, l)
                 } else {
                     0.0
                 };
@@ -254,23 +253,31 @@ impl Renderer {
                 let grain = self.scene.fine_detail(p.x + 0.37 * p.z, p.y - 0.61 * p.z);
                 (d.normalize(), o.albedo * grain)
             }
-            ObjectKind::Lander => {
-                let f = self.face_normals[triangle as usize];
-                (
-                    Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64),
-                    o.albedo,
-                )
-            }
+            ObjectKind::Lander => (self.triangle_normal(triangle), o.albedo),
         };
         let mu0 = normal.dot(&self.sun);
         let mu = view_cos(&normal);
         let direct = if mu0 > 0.0 && self.shadow.lit(p, &normal) {
-            2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
+            lunar_lambert(mu0, mu, l)
         } else {
             0.0
         };
         albedo * (direct + self.config.ambient)
     }
+
+    /// The stored unit normal of scene triangle `triangle`.
+    #[inline]
+    fn triangle_normal(&self, triangle: u32) -> Vector3<f64> {
+        let f = self.face_normals[triangle as usize];
+        Vector3::new(f[0] as f64, f[1] as f64, f[2] as f64)
+    }
+}
+
+/// The lunar-Lambert reflectance of a lit surface: a Lommel–Seeliger part of weight `l` and
+/// a Lambert part, for the cosines `mu0` (toward the sun) and `mu` (toward the viewer).
+#[inline]
+fn lunar_lambert(mu0: f64, mu: f64, l: f64) -> f64 {
+    2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
 }
 
 /// Texel of the baked terrain sunlight, metres.
