@@ -1,56 +1,80 @@
 #!/usr/bin/env bash
 # Stereo visual odometry on rendered drives of the synthetic moon (issue 27): for each seed,
-# `segloc sim render --seed S --seconds T --every 2` (10 Hz, 1280 × 720, the default sun) and
-# `segloc eval vo --images DIR` against the render's truth. Writes the section "vo-rendered"
-# of BENCHMARKS.md. Seeds of the synthetic moon were never used to tune the VO (its defaults
-# come from the KITTI frames).
+# `segloc sim render --seed S --seconds T --every 2` (10 Hz, 1280 × 720) and
+# `segloc eval vo --images DIR` against the render's truth: KITTI's drift over 10 m
+# segments, the end-point error, lost frames and time. Writes the section "vo-rendered" of
+# BENCHMARKS.md. Seeds 1-10 were never used to tune the VO (its defaults come from the
+# KITTI frames and from seeds 11-13 of the synthetic moon).
 #
-# Usage: scripts/bench_vo_rendered.sh [--quick] [--print] [FIRST LAST [SECONDS]]
-#   (defaults: seeds 1-3, 60 s; quick: seed 1, 20 s)
+# Usage: scripts/bench_vo_rendered.sh [--quick] [--print] [--runs DIR] [FIRST LAST [SECONDS]]
+#   defaults: seeds 1-10, 300 s, sun elevation 15° and a 5° run of the first seed;
+#   quick: seed 1, 20 s. Each seed's JSON is kept in --runs DIR (default
+#   target/bench-vo-rendered) and reused when present, so a long run can be resumed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-first=1 last=3 seconds=60 print=0 args=()
-for a in "$@"; do
-  case "$a" in
+first=1 last=10 seconds=300 print=0 runs="" args=()
+while [[ $# -gt 0 ]]; do
+  case "$1" in
     --quick) last=1 seconds=20 ;;
     --print) print=1 ;;
-    *) args+=("$a") ;;
+    --runs) runs="$2"; shift ;;
+    *) args+=("$1") ;;
   esac
+  shift
 done
 [[ ${#args[@]} -ge 2 ]] && first=${args[0]} last=${args[1]}
 [[ ${#args[@]} -ge 3 ]] && seconds=${args[2]}
 source scripts/bench_lib.sh
 segloc_bin
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
-for s in $(seq "$first" "$last"); do
-  "$bin" sim render --seed "$s" --seconds "$seconds" --every 2 -o "$work/r$s" > /dev/null
-  RAYON_NUM_THREADS=1 "$bin" eval vo --images "$work/r$s" --json > "$work/vo$s.json"
-  rm -rf "$work/r$s"
-done
-section=$(python3 - "$work" "$first" "$last" "$seconds" <<'PY'
+runs="${runs:-$target/bench-vo-rendered}"
+mkdir -p "$runs"
+one() {  # seed sun_elevation
+  local out="$runs/vo-s$1-e$2-t$seconds.json"
+  [[ -s "$out" ]] && return
+  local dir="$runs/render-s$1"
+  rm -rf "$dir"
+  "$bin" sim render --seed "$1" --seconds "$seconds" --every 2 --sun-elevation "$2" -o "$dir" > /dev/null
+  RAYON_NUM_THREADS=1 "$bin" eval vo --images "$dir" --json > "$out.tmp"
+  mv "$out.tmp" "$out"
+  rm -rf "$dir"
+}
+for s in $(seq "$first" "$last"); do one "$s" 15; done
+one "$first" 5
+section=$(python3 - "$runs" "$first" "$last" "$seconds" <<'PY'
 import json, sys, datetime, subprocess, os
 d, first, last, seconds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 sh = lambda c: subprocess.run(["sh", "-c", c], capture_output=True, text=True).stdout.strip()
 commit = sh("git rev-parse --short HEAD")
 date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-rows = []
-for s in range(first, last + 1):
-    v = json.load(open(f"{d}/vo{s}.json"))
-    rows.append(f"| {s} | {v['frames']} | {v['distance_m']:.2f} | {v['translation_error_m']:.3f} m ({v['translation_error_percent']:.1f} %) "
-                f"| {v['rotation_error_deg']:.2f}° | {v['lost_frames']} | {v['tracked_features']:.0f} | {v['inliers']:.0f} "
-                f"| {v['per_frame_ms']['median']:.0f} / {v['per_frame_ms']['p99']:.0f} |")
+def row(s, e):
+    v = json.load(open(f"{d}/vo-s{s}-e{e}-t{seconds}.json"))
+    g = v.get("drift_10m") or {}
+    drift = (f"{g['translation_percent']:.2f} % / {g['translation_percent_p90']:.2f} % | {g['rotation_deg_per_10m']:.3f}°"
+             if g else "— | —")
+    return v, (f"| {s} | {e}° | {v['distance_m']:.1f} | {drift} | {v['translation_error_percent']:.2f} % "
+               f"| {v['lost_frames']}/{v['frames']} | {v['tracked_features']:.0f} | {v['per_frame_ms']['median']:.0f} / {v['per_frame_ms']['p99']:.0f} |")
+runs = [row(s, 15) for s in range(first, last + 1)] + [row(first, 5)]
+main = [v for v, _ in runs[:-1]]
+def med(xs):
+    xs = sorted(xs); return xs[len(xs) // 2] if len(xs) % 2 else 0.5 * (xs[len(xs) // 2 - 1] + xs[len(xs) // 2])
+def p90(xs):
+    xs = sorted(xs); return xs[round((len(xs) - 1) * 0.9)]
+tr = [v["drift_10m"]["translation_percent"] for v in main if v.get("drift_10m")]
+ro = [v["drift_10m"]["rotation_deg_per_10m"] for v in main if v.get("drift_10m")]
+ms = [v["per_frame_ms"]["median"] for v in main]
+summary = (f"Over seeds {first}–{last} at 15°: translation drift median {med(tr):.2f} %, p90 {p90(tr):.2f} %; rotation median "
+           f"{med(ro):.3f}° per 10 m, p90 {p90(ro):.3f}°; lost frames {sum(v['lost_frames'] for v in main)} of "
+           f"{sum(v['frames'] for v in main)}; time median of the seeds' medians {med(ms):.0f} ms a frame." if tr else "")
 print("\n".join([
     "## Stereo visual odometry on rendered drives (issue 27)", "",
     f"`scripts/bench_vo_rendered.sh {first} {last} {seconds}` — {date}, commit `{commit}`, AMD EPYC, 2 cores shared "
-    f"(load average {os.getloadavg()[0]:.1f}); `segloc sim render --seed S --seconds {seconds} --every 2` (10 Hz, 1280 × 720, "
-    "default sun) then `segloc eval vo --images DIR`, one thread, default `VoConfig` (tuned on KITTI only; these seeds are held out).", "",
-    "| seed | frames | distance (m) | end-point error | rotation error | lost frames | tracked (median) | inliers (median) | ms a frame median / p99 |",
+    f"(load average {os.getloadavg()[0]:.1f}); `segloc sim render --seed S --seconds {seconds} --every 2 --sun-elevation E` "
+    "(10 Hz, 1280 × 720) then `segloc eval vo --images DIR`, one thread, default `VoConfig`. Held out: seeds 1–10 "
+    "(tuned on KITTI and seeds 11–13). Drift: KITTI's metric over 10 m segments, mean / p90 over the segments.", "",
+    "| seed | sun | distance (m) | translation drift mean / p90 | rotation per 10 m | end point | lost | tracked (median) | ms a frame median / p99 |",
     "|---|---|---|---|---|---|---|---|---|",
-    *rows, "",
-    "Targets (issue 27, 300 s drives): ≤ 1 % of distance over 10 m, ≤ 0.1° per 10 m, no frame lost, ≤ 40 ms a frame — **not met**: "
-    "the odometry loses track on many frames (the near regolith is smooth, rocks and pebbles give most corners) and the "
-    "rotation then drifts; why each loss happens is not yet analysed.",
+    *[r for _, r in runs], "", summary, "",
+    "Targets: ≤ 1 % over 10 m (median over seeds), ≤ 0.1° per 10 m, no frame lost, ≤ 40 ms a frame on 2 cores.",
 ]))
 PY
 )

@@ -5,7 +5,9 @@
 
 use clap::Args;
 use segloc::graph::file::write_atomic;
-use segloc::vo::{run_sequence, tum, FrameResult, StereoSequence, VoConfig, VoError};
+use segloc::vo::{
+    run_sequence, segment_drift, tum, FrameResult, SegmentDrift, StereoSequence, VoConfig, VoError,
+};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -93,7 +95,7 @@ struct VoOutput<'a> {
 
 fn config_of(path: &Option<PathBuf>) -> Result<VoConfig, VoError> {
     let Some(p) = path else {
-        return Ok(VoConfig::standard());
+        return Ok(VoConfig::default());
     };
     let text = std::fs::read_to_string(p).map_err(|source| VoError::Io {
         path: p.clone(),
@@ -181,6 +183,8 @@ struct EvalOutput<'a> {
     translation_error_m: f64,
     translation_error_percent: f64,
     rotation_error_deg: f64,
+    /// KITTI's metric over 10 m segments; null when the drive is shorter.
+    drift_10m: Option<SegmentDrift>,
     #[serde(flatten)]
     vo: VoOutput<'a>,
 }
@@ -219,6 +223,11 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
             translation_error_m,
             translation_error_percent: 100.0 * translation_error_m / distance_m.max(1e-9),
             rotation_error_deg: err.rotation.angle().to_degrees(),
+            drift_10m: segment_drift(
+                &results.iter().map(|r| r.pose).collect::<Vec<_>>(),
+                &truth,
+                10.0,
+            ),
             vo: summary(&results, &config),
         };
         if a.json {
@@ -228,6 +237,12 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
                 "{} frames over {:.2} m: end-point translation error {:.3} m ({:.2} %), rotation error {:.3}°; {:.1} ms per frame median, {:.1} ms p99, {} lost",
                 out.vo.frames, out.distance_m, out.translation_error_m, out.translation_error_percent, out.rotation_error_deg, out.vo.per_frame_ms.median, out.vo.per_frame_ms.p99, out.vo.lost_frames
             );
+            if let Some(d) = &out.drift_10m {
+                println!(
+                    "over {} segments of 10 m: translation drift {:.2} % (p90 {:.2} %), rotation {:.3}° per 10 m",
+                    d.segments, d.translation_percent, d.translation_percent_p90, d.rotation_deg_per_10m
+                );
+            }
         }
         Ok(())
     })())

@@ -137,21 +137,42 @@ fn track_level(
 
 /// Tracks `points` from `from` to `to`, each checked by tracking back; `None` for a lost
 /// point.
+///
+/// `predicted` holds, per point, where the motion prior expects it in `to` (or `None`):
+/// the search starts there and falls back to the point's own position when that fails,
+/// so a steady turn of tens of pixels a frame stays within the pyramid's reach while a
+/// sudden stop is still found.
 pub fn track(
     from: &Pyramid,
     to: &Pyramid,
     points: &[(f32, f32)],
+    predicted: &[Option<(f32, f32)>],
     config: &KltConfig,
 ) -> Vec<Option<(f32, f32)>> {
     points
         .iter()
-        .map(|&p| {
-            let q = track_point(from, to, p, p, config)?;
-            let back = track_point(to, from, q, p, config)?;
-            let err = ((back.0 - p.0).powi(2) + (back.1 - p.1).powi(2)).sqrt();
-            (err <= config.forward_backward_px).then_some(q)
+        .enumerate()
+        .map(|(i, &p)| {
+            let guess = predicted.get(i).copied().flatten();
+            guess
+                .and_then(|g| track_checked(from, to, p, g, config))
+                .or_else(|| track_checked(from, to, p, p, config))
         })
         .collect()
+}
+
+/// One point tracked from `guess` and checked by tracking it back to `p`.
+fn track_checked(
+    from: &Pyramid,
+    to: &Pyramid,
+    p: (f32, f32),
+    guess: (f32, f32),
+    config: &KltConfig,
+) -> Option<(f32, f32)> {
+    let q = track_point(from, to, p, guess, config)?;
+    let back = track_point(to, from, q, p, config)?;
+    let err = ((back.0 - p.0).powi(2) + (back.1 - p.1).powi(2)).sqrt();
+    (err <= config.forward_backward_px).then_some(q)
 }
 
 #[cfg(test)]
@@ -179,13 +200,43 @@ mod tests {
         let a = Pyramid::new(&textured(0.0, 0.0), 3);
         let b = Pyramid::new(&textured(4.3, -2.6), 3);
         let points = [(60.0, 50.0), (90.0, 70.0), (40.0, 80.0)];
-        let tracked = track(&a, &b, &points, &KltConfig::default());
+        let tracked = track(&a, &b, &points, &[], &KltConfig::default());
         for (p, q) in points.iter().zip(&tracked) {
             let q = q.expect("lost");
             assert!(
                 (q.0 - p.0 - 4.3).abs() < 0.2 && (q.1 - p.1 + 2.6).abs() < 0.2,
                 "{p:?} -> {q:?}"
             );
+        }
+    }
+
+    #[test]
+    fn a_shift_beyond_the_pyramid_is_tracked_from_the_prediction() {
+        let a = Pyramid::new(&textured(0.0, 0.0), 2);
+        let b = Pyramid::new(&textured(23.4, 1.7), 2);
+        let points = [(50.0, 50.0), (70.0, 60.0)];
+        let config = KltConfig::default();
+        let predicted: Vec<_> = points
+            .iter()
+            .map(|p| Some((p.0 + 22.0, p.1 + 2.0)))
+            .collect();
+        let tracked = track(&a, &b, &points, &predicted, &config);
+        for (p, q) in points.iter().zip(&tracked) {
+            let q = q.expect("lost with the prediction");
+            assert!(
+                (q.0 - p.0 - 23.4).abs() < 0.2 && (q.1 - p.1 - 1.7).abs() < 0.2,
+                "{p:?} -> {q:?}"
+            );
+        }
+        // A wrong prediction falls back to the zero-motion start.
+        let small = Pyramid::new(&textured(2.0, -1.0), 2);
+        let wrong: Vec<_> = points.iter().map(|p| Some((p.0 + 40.0, p.1))).collect();
+        for (p, q) in points
+            .iter()
+            .zip(track(&a, &small, &points, &wrong, &config))
+        {
+            let q = q.expect("lost after a wrong prediction");
+            assert!((q.0 - p.0 - 2.0).abs() < 0.2, "{p:?} -> {q:?}");
         }
     }
 }

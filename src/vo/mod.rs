@@ -9,7 +9,8 @@
 //! window of frames and their points by bundle adjustment on the pose graph's stereo
 //! projection factors. [`StereoOdometry`] runs the stages ([`odometry`]); [`sequence`] reads
 //! sequences (KITTI layout; a `segloc sim render` folder in [`rendered_sequence`], a `.lac`
-//! recording in [`lac_sequence`]) and [`tum`] writes trajectories.
+//! recording in [`lac_sequence`]), [`tum`] writes trajectories and [`segment_drift`] scores
+//! them as KITTI does.
 
 pub mod corners;
 pub mod error;
@@ -19,6 +20,7 @@ pub mod motion;
 pub mod odometry;
 pub mod pyramid;
 pub mod rendered_sequence;
+pub mod segment_drift;
 pub mod sequence;
 pub mod stereo_match;
 pub mod tum;
@@ -26,6 +28,7 @@ pub mod window;
 
 pub use error::VoError;
 pub use odometry::{FrameResult, StereoOdometry, VoConfig};
+pub use segment_drift::{segment_drift, SegmentDrift};
 pub use sequence::{FrameImages, SequenceFrame, StereoSequence};
 
 /// Runs the odometry over a sequence, checking that every image has the size of the first.

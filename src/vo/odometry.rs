@@ -23,10 +23,11 @@ use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Configuration of the visual odometry, one section per stage.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct VoConfig {
-    /// Pyramid levels of the tracker.
+    /// Pyramid levels of the tracker (each halves the image): four reach a rover's
+    /// turn in place between 10 Hz frames.
     pub pyramid_levels: usize,
     /// Corner detection.
     pub corners: CornerConfig,
@@ -40,15 +41,20 @@ pub struct VoConfig {
     pub window: WindowConfig,
 }
 
-impl VoConfig {
-    /// The defaults with a usable number of pyramid levels.
-    pub fn standard() -> Self {
+impl Default for VoConfig {
+    fn default() -> Self {
         Self {
-            pyramid_levels: 3,
-            ..Self::default()
+            pyramid_levels: 4,
+            corners: CornerConfig::default(),
+            klt: KltConfig::default(),
+            stereo: StereoMatchConfig::default(),
+            motion: MotionConfig::default(),
+            window: WindowConfig::default(),
         }
     }
+}
 
+impl VoConfig {
     /// Checks the ranges, naming the TOML path of a bad value.
     pub fn validate(&self) -> Result<(), VoError> {
         let bad = |m: &str| Err(VoError::Config(m.to_string()));
@@ -205,7 +211,16 @@ impl StereoOdometry {
         right: &FloatImage,
     ) -> (usize, Option<Motion>) {
         let points: Vec<(f32, f32)> = self.features.iter().map(|f| (f.x, f.y)).collect();
-        let moved = track(prev, curr, &points, &self.config.klt);
+        let predicted: Vec<Option<(f32, f32)>> = self
+            .features
+            .iter()
+            .map(|f| {
+                let p_curr = self.last_motion * f.p_camera;
+                let uv = self.camera.project(&p_curr.coords)?;
+                Some((uv.x as f32, uv.z as f32))
+            })
+            .collect();
+        let moved = track(prev, curr, &points, &predicted, &self.config.klt);
         let mut kept = Vec::new();
         let mut correspondences = Vec::new();
         for (f, m) in self.features.iter().zip(moved) {
@@ -272,5 +287,18 @@ impl StereoOdometry {
                 self.next_id += 1;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_partial_toml_keeps_the_other_defaults() {
+        let config: VoConfig = toml::from_str("[corners]\ncell_px = 30\n").unwrap();
+        assert_eq!(config.corners.cell_px, 30);
+        assert_eq!(config.pyramid_levels, VoConfig::default().pyramid_levels);
+        config.validate().unwrap();
     }
 }
