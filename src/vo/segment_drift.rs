@@ -28,7 +28,7 @@ pub fn segment_drift(
     truth: &[Isometry3<f64>],
     length_m: f64,
 ) -> Option<SegmentDrift> {
-    if estimate.len() != truth.len() || !(length_m > 0.0) {
+    if estimate.len() != truth.len() || length_m.is_nan() || length_m <= 0.0 {
         return None;
     }
     let mut along = Vec::with_capacity(truth.len());
