@@ -38,7 +38,9 @@ LAYERS: list[tuple[str, list[str]]] = [
     ("foundation", ["maps", "clipper", "spatial", "ipex", "font", "memory", "field_error"]),
     ("geometry", ["graph", "align"]),
     ("landmarks and relocalization", ["landmarks", "relocalize"]),
-    ("engine users", ["localizer", "perception", "planning", "mapping", "merge", "io", "vo"]),
+    ("engine users", [
+        "localizer", "perception", "planning", "mapping", "merge", "io", "vo", "image_stream",
+    ]),
     ("simulation", ["sim"]),
     ("applications", ["mission", "eval"]),
 ]

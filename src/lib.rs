@@ -18,6 +18,7 @@ pub mod eval;
 pub mod field_error;
 pub mod font;
 pub mod graph;
+pub mod image_stream;
 pub mod io;
 pub mod ipex;
 pub mod landmarks;

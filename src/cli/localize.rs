@@ -1,12 +1,17 @@
-//! `segloc localize`: a recorded drive (a frames file) through the online localizer, against
-//! a prior session's map or, without one, as a mapping session; writes the trajectory as a
-//! TUM file and, with `--map-out`, the session's boulder map.
+//! `segloc localize`: a recorded drive through the online localizer, against a prior
+//! session's map or, without one, as a mapping session; writes the trajectory as a TUM file
+//! and, with `--map-out`, the session's boulder map. The drive is a frames file, or stereo
+//! images (`--lac`, `--images`) that the visual odometry and the perception front end turn
+//! into frames first ([`segloc::image_stream`]).
 
+use super::detect::{make_segmenter, SegmenterKind};
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use segloc::image_stream::{stream_sequence, ImageStreamConfig, StreamOutput};
 use segloc::io::inputs::load_map;
-use segloc::localizer::{FrameOutput, Localizer, LocalizerConfig, SessionResult};
-use segloc_maps::frames::read_frames;
+use segloc::localizer::{FrameInput, FrameOutput, Localizer, LocalizerConfig, SessionResult};
+use segloc::vo::StereoSequence;
+use segloc_maps::frames::{read_frames, write_frames};
 use segloc_maps::tum::write_tum;
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -16,8 +21,33 @@ use std::path::{Path, PathBuf};
 #[derive(Args, Debug)]
 pub struct LocalizeArgs {
     /// The drive: a frames file (JSON Lines, maps/FORMAT.md "Frames file").
-    #[arg(long, value_name = "FILE", required_unless_present = "print_config")]
+    #[arg(
+        long,
+        value_name = "FILE",
+        required_unless_present_any = ["print_config", "lac", "images"],
+        conflicts_with_all = ["lac", "images"]
+    )]
     frames: Option<PathBuf>,
+    /// The drive as a `.lac` recording: its front stereo pairs through the visual odometry
+    /// and the perception front end, with the recorded IMU's gravity.
+    #[arg(long, value_name = "FILE", conflicts_with = "images")]
+    lac: Option<PathBuf>,
+    /// The drive as a `segloc sim render` folder (stereo pairs, calibration, imu.csv).
+    #[arg(long, value_name = "DIR")]
+    images: Option<PathBuf>,
+    /// With `--lac` or `--images`: the segmenter of the front end.
+    #[arg(long, value_enum, default_value = "geometric")]
+    segmenter: SegmenterKind,
+    /// With `--segmenter onnx` (or another model for `learned`): the ONNX model.
+    #[arg(long, value_name = "ONNX")]
+    model: Option<PathBuf>,
+    /// With `--lac` or `--images`: the image stream's settings (TOML: `detect_period_s`,
+    /// `min_range_m`, `max_range_m`, `[vo]`, `[front_end]`).
+    #[arg(long, value_name = "FILE")]
+    stream_config: Option<PathBuf>,
+    /// With `--lac` or `--images`: also write the frames the images gave (a frames file).
+    #[arg(long, value_name = "FILE")]
+    frames_out: Option<PathBuf>,
     /// The prior session's map (map file, detections CSV or LunarLoc traverse CSV); without
     /// it the drive is a mapping session anchored at its first frame.
     #[arg(long, value_name = "MAP")]
@@ -58,13 +88,11 @@ pub fn run(args: &LocalizeArgs) -> Result<i32> {
         print!("{}", toml::to_string_pretty(&config)?);
         return Ok(0);
     }
-    let (Some(frames_path), Some(output)) = (&args.frames, &args.output) else {
-        bail!("--frames and --output are required");
+    let Some(output) = &args.output else {
+        bail!("--output is required");
     };
-    let file = read_frames(frames_path)?;
-    for warning in &file.warnings {
-        eprintln!("warning: {warning}");
-    }
+    let drive = read_drive(args)?;
+    let frames_path = &drive.source;
     let prior = match &args.prior {
         Some(path) => Some(
             load_map(path, &config.fusion)
@@ -80,8 +108,8 @@ pub fn run(args: &LocalizeArgs) -> Result<i32> {
         None => config,
     };
     let mut localizer = Localizer::new(prior, config.clone())?;
-    let mut outputs = Vec::with_capacity(file.frames.len());
-    for frame in &file.frames {
+    let mut outputs = Vec::with_capacity(drive.frames.len());
+    for frame in &drive.frames {
         let out = localizer
             .push_frame(frame)
             .with_context(|| format!("{}", frames_path.display()))?;
@@ -89,12 +117,15 @@ pub fn run(args: &LocalizeArgs) -> Result<i32> {
     }
     let first_fix = localizer.first_fix_frame();
     let session = localizer.finish()?;
-    let summary = summary(&file.frames, &outputs, &session, first_fix, &config);
+    let mut summary = summary(&drive.frames, &outputs, &session, first_fix, &config);
+    if let Some(images) = &drive.images {
+        summary["image_stream"] = images.clone();
+    }
     let Some(first_fix) = first_fix else {
         report(args, &summary, "no fix: nothing written")?;
         return Ok(1);
     };
-    let times: Vec<f64> = file.frames.iter().map(|f| f.t).collect();
+    let times: Vec<f64> = drive.frames.iter().map(|f| f.t).collect();
     let poses = trajectory(&times, &outputs, &session, args, first_fix);
     write_tum(output, &poses)?;
     if let Some(path) = &args.map_out {
@@ -107,6 +138,77 @@ pub fn run(args: &LocalizeArgs) -> Result<i32> {
     };
     report(args, &summary, what)?;
     Ok(0)
+}
+
+/// A drive's frames, where they came from and, for images, the image stream's summary.
+struct Drive {
+    frames: Vec<FrameInput>,
+    source: PathBuf,
+    images: Option<serde_json::Value>,
+}
+
+/// The frames of `--frames`, or of `--lac` / `--images` through the image stream (written to
+/// `--frames-out` when asked).
+fn read_drive(args: &LocalizeArgs) -> Result<Drive> {
+    if let Some(path) = &args.frames {
+        let file = read_frames(path)?;
+        for warning in &file.warnings {
+            eprintln!("warning: {warning}");
+        }
+        return Ok(Drive {
+            frames: file.frames,
+            source: path.clone(),
+            images: None,
+        });
+    }
+    let config = load_stream_config(args.stream_config.as_deref())?;
+    let (sequence, source) = match (&args.lac, &args.images) {
+        (Some(lac), _) => (StereoSequence::read_lac(lac)?, lac.clone()),
+        (_, Some(dir)) => (StereoSequence::read_rendered(dir)?, dir.clone()),
+        _ => bail!("give the drive: --frames FILE, --lac FILE or --images DIR"),
+    };
+    let segmenter = make_segmenter(args.segmenter, args.model.as_deref(), &config.front_end)?;
+    let outputs = stream_sequence(&sequence, config.clone(), segmenter)
+        .with_context(|| format!("{}", source.display()))?;
+    let frames: Vec<FrameInput> = outputs.iter().map(|o| o.frame.clone()).collect();
+    if let Some(path) = &args.frames_out {
+        write_frames(path, &frames)?;
+    }
+    Ok(Drive {
+        images: Some(image_summary(&outputs, &config)),
+        frames,
+        source,
+    })
+}
+
+/// The image stream's part of the `--json` summary.
+fn image_summary(outputs: &[StreamOutput], config: &ImageStreamConfig) -> serde_json::Value {
+    let vo_ms: Vec<f64> = outputs.iter().map(|o| o.vo.time_ms).collect();
+    let front_end_ms: Vec<f64> = outputs.iter().filter_map(|o| o.front_end_ms).collect();
+    json!({
+        "pairs": outputs.len(),
+        "vo_lost_frames": outputs.iter().filter(|o| o.vo.lost).count(),
+        "detection_frames": front_end_ms.len(),
+        "detections": outputs.iter().map(|o| o.frame.detections.len()).sum::<usize>(),
+        "vo_ms": stats(&vo_ms),
+        "front_end_ms": stats(&front_end_ms),
+        "config": config,
+    })
+}
+
+/// The image stream's settings from `path`, or the defaults.
+fn load_stream_config(path: Option<&Path>) -> Result<ImageStreamConfig> {
+    let Some(path) = path else {
+        return Ok(ImageStreamConfig::default());
+    };
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let config: ImageStreamConfig =
+        toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    config
+        .validate()
+        .with_context(|| format!("{}", path.display()))?;
+    Ok(config)
 }
 
 /// The configuration from `path`, or the defaults; the error names the file and the field.

@@ -1,14 +1,15 @@
 //! A `.lac` recording as a stereo sequence: the frames where both front cameras have a
 //! grayscale image ([`LacRecording::front_stereo_frames`]), timed by `frames.csv` (mission time) or, where it
 //! has none, by the simulator's 20 Hz frame number; the IPEX front pair's calibration scaled
-//! to the images' size; the recorded rover poses as ground truth when every frame has one.
+//! to the images' size; gravity from the recorded accelerometer; the recorded rover poses as
+//! ground truth when every frame has one.
 
 use super::sequence::{check_times, first_from_camera, FrameImages, SequenceFrame, StereoSequence};
 use super::VoError;
 use crate::graph::StereoCalibration;
 use crate::perception::lac::LacRecording;
 use crate::perception::StereoCamera;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -48,6 +49,12 @@ impl StereoSequence {
                     recording: Arc::clone(&recording),
                     frame,
                 },
+                // the accelerometer of a resting rover reads minus gravity
+                gravity_rover: recording
+                    .frame(frame)
+                    .and_then(|f| f.imu.as_ref())
+                    .map(|imu| -Vector3::from(imu.accel))
+                    .filter(|g| g.iter().all(|v| v.is_finite()) && g.norm() > 0.0),
             })
             .collect();
         check_times(&frames, path)?;

@@ -1,13 +1,14 @@
 //! A `segloc sim render` folder as a stereo sequence (layout in `docs/render-format.md`):
 //! `NNNNNN_0.png` / `NNNNNN_1.png` per rendered tick, `calibration.json` (intrinsics,
-//! baseline, `tick_s`) and, as ground truth, `truth.tum` (`world_from_left_camera`, whose
-//! times are the frames' times).
+//! baseline, `tick_s`), the IMU's gravity per tick when there is an `imu.csv` and, as ground
+//! truth, `truth.tum` (`world_from_left_camera`, whose times are the frames' times).
 
 use super::sequence::{check_times, first_from_camera, FrameImages, SequenceFrame, StereoSequence};
 use super::VoError;
 use crate::graph::StereoCalibration;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The fields of `calibration.json` the odometry needs.
@@ -91,12 +92,50 @@ fn left_images(dir: &Path) -> Result<Vec<(u64, PathBuf)>, VoError> {
     Ok(ticks)
 }
 
+/// `imu.csv` (`frame,time_s,gravity_x,gravity_y,gravity_z`, rover frame) by tick; empty
+/// when the folder has none.
+fn read_imu(path: &Path) -> Result<BTreeMap<u64, Vector3<f64>>, VoError> {
+    let mut gravity = BTreeMap::new();
+    if !path.is_file() {
+        return Ok(gravity);
+    }
+    let text = std::fs::read_to_string(path).map_err(|source| VoError::Io {
+        path: path.into(),
+        source,
+    })?;
+    for (k, line) in text.lines().enumerate().skip(1) {
+        let bad = |message: String| VoError::Parse {
+            path: path.into(),
+            line: k + 1,
+            message,
+        };
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != 5 {
+            return Err(bad(format!("expected 5 fields, found {}", fields.len())));
+        }
+        let tick: u64 = fields[0]
+            .parse()
+            .map_err(|_| bad(format!("frame '{}' is not a whole number", fields[0])))?;
+        let mut g = [0.0; 3];
+        for (value, text) in g.iter_mut().zip(&fields[2..]) {
+            *value = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| bad(format!("'{text}' is not a finite number")))?;
+        }
+        gravity.insert(tick, Vector3::from(g));
+    }
+    Ok(gravity)
+}
+
 impl StereoSequence {
     /// Reads a `segloc sim render` folder. Every left image needs its right image; with a
     /// `truth.tum`, it must have one pose per frame, and its times are the frames' times
     /// (otherwise tick × `tick_s`).
     pub fn read_rendered(dir: &Path) -> Result<Self, VoError> {
         let (calibration, tick_s) = read_calibration(&dir.join("calibration.json"))?;
+        let gravity = read_imu(&dir.join("imu.csv"))?;
         let mut frames = Vec::new();
         for (tick, left) in left_images(dir)? {
             let right = dir.join(format!("{tick:06}_1.png"));
@@ -109,6 +148,7 @@ impl StereoSequence {
             frames.push(SequenceFrame {
                 time_s: tick as f64 * tick_s,
                 images: FrameImages::Files { left, right },
+                gravity_rover: gravity.get(&tick).copied(),
             });
         }
         let truth_path = dir.join("truth.tum");
@@ -167,6 +207,23 @@ mod tests {
             (s.frames[0].time_s - 1.0).abs() < 1e-12 && (s.frames[1].time_s - 2.0).abs() < 1e-12
         );
         assert!((s.calibration.baseline_m - 0.162).abs() < 1e-12 && s.truth.is_none());
+        assert!(s.frames[0].gravity_rover.is_none());
+        std::fs::write(
+            dir.path().join("imu.csv"),
+            "frame,time_s,gravity_x,gravity_y,gravity_z\n20,1.0,0,0,-1.62\n",
+        )
+        .unwrap();
+        let s = StereoSequence::read_rendered(dir.path()).unwrap();
+        assert_eq!(
+            s.frames[0].gravity_rover,
+            Some(Vector3::new(0.0, 0.0, -1.62))
+        );
+        assert!(s.frames[1].gravity_rover.is_none());
+        std::fs::write(dir.path().join("imu.csv"), "header\n20,1.0,0,x,1\n").unwrap();
+        let e = StereoSequence::read_rendered(dir.path())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("imu.csv:2") && e.contains("'x'"), "{e}");
         let [(left, _), (right, name)] = s.load(1).unwrap();
         assert_eq!((left.width, right.height), (8, 4));
         assert!(name.ends_with("000040_1.png"));

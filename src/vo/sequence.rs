@@ -8,7 +8,7 @@ use super::VoError;
 use crate::graph::StereoCalibration;
 use crate::perception::lac::{LacRecording, FRONT_LEFT, FRONT_RIGHT};
 use crate::perception::{read_gray_png, GrayImage};
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -38,6 +38,8 @@ pub struct SequenceFrame {
     pub time_s: f64,
     /// Its images.
     pub images: FrameImages,
+    /// The IMU's gravity in the rover frame at this frame, when the recording has it.
+    pub gravity_rover: Option<Vector3<f64>>,
 }
 
 /// A stereo sequence: calibration and frames in time order.
@@ -212,6 +214,7 @@ impl StereoSequence {
             frames.push(SequenceFrame {
                 time_s: 0.1 * n as f64,
                 images: FrameImages::Files { left, right },
+                gravity_rover: None,
             });
         }
         let truth_path = dir.join("poses.txt");
