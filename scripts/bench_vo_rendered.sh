@@ -6,18 +6,20 @@
 # BENCHMARKS.md. Seeds 1-10 were never used to tune the VO (its defaults come from the
 # KITTI frames and from seeds 11-13 of the synthetic moon).
 #
-# Usage: scripts/bench_vo_rendered.sh [--quick] [--print] [--runs DIR] [FIRST LAST [SECONDS]]
-#   defaults: seeds 1-10, 300 s, sun elevation 15° and a 5° run of the first seed;
+# Usage: scripts/bench_vo_rendered.sh [--quick] [--print] [--runs DIR] [--low-sun SEED|none]
+#                                     [FIRST LAST [SECONDS]]
+#   defaults: seeds 1-10, 300 s, sun elevation 15° and a 5° run of the first seed (--low-sun);
 #   quick: seed 1, 20 s. Each seed's JSON is kept in --runs DIR (default
 #   target/bench-vo-rendered) and reused when present, so a long run can be resumed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-first=1 last=10 seconds=300 print=0 runs="" args=()
+first=1 last=10 seconds=300 print=0 runs="" low_sun="" args=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) last=1 seconds=20 ;;
     --print) print=1 ;;
     --runs) runs="$2"; shift ;;
+    --low-sun) low_sun="$2"; shift ;;
     *) args+=("$1") ;;
   esac
   shift
@@ -39,10 +41,11 @@ one() {  # seed sun_elevation
   rm -rf "$dir"
 }
 for s in $(seq "$first" "$last"); do one "$s" 15; done
-one "$first" 5
-section=$(python3 - "$runs" "$first" "$last" "$seconds" <<'PY'
+low_sun="${low_sun:-$first}"
+[[ $low_sun != none ]] && one "$low_sun" 5
+section=$(python3 - "$runs" "$first" "$last" "$seconds" "$low_sun" <<'PY'
 import json, sys, datetime, subprocess, os
-d, first, last, seconds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+d, first, last, seconds, low_sun = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
 sh = lambda c: subprocess.run(["sh", "-c", c], capture_output=True, text=True).stdout.strip()
 commit = sh("git rev-parse --short HEAD")
 date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -53,8 +56,10 @@ def row(s, e):
              if g else "— | —")
     return v, (f"| {s} | {e}° | {v['distance_m']:.1f} | {drift} | {v['translation_error_percent']:.2f} % "
                f"| {v['lost_frames']}/{v['frames']} | {v['tracked_features']:.0f} | {v['per_frame_ms']['median']:.0f} / {v['per_frame_ms']['p99']:.0f} |")
-runs = [row(s, 15) for s in range(first, last + 1)] + [row(first, 5)]
-main = [v for v, _ in runs[:-1]]
+runs = [row(s, 15) for s in range(first, last + 1)]
+main = [v for v, _ in runs]
+if low_sun != "none":
+    runs.append(row(int(low_sun), 5))
 def med(xs):
     xs = sorted(xs); return xs[len(xs) // 2] if len(xs) % 2 else 0.5 * (xs[len(xs) // 2 - 1] + xs[len(xs) // 2])
 def p90(xs):

@@ -28,63 +28,112 @@ impl Default for CornerConfig {
 
 /// The strongest corner of every cell not marked `occupied` (cells row-major, `cols` per
 /// row as [`grid_size`] gives), as `(x, y)` pixel coordinates.
+///
+/// Each empty cell is scored on its own (its gradients with a margin of the window's
+/// half-size), so occupied cells cost nothing and no image-sized buffer is made.
 pub fn detect_corners(
     image: &FloatImage,
     config: &CornerConfig,
     occupied: &[bool],
 ) -> Vec<(f32, f32)> {
     let (cols, rows) = grid_size(image, config);
-    let mut best = vec![(0.0f32, 0usize, 0usize); cols * rows];
     let (w, h) = (image.width, image.height);
     let b = config.border_px.max(3);
     if w <= 2 * b || h <= 2 * b {
         return Vec::new();
     }
-    // Gradient products on the rows that matter, summed over 5 × 5 windows.
-    let mut gxx = vec![0.0f32; w * h];
-    let mut gxy = vec![0.0f32; w * h];
-    let mut gyy = vec![0.0f32; w * h];
-    for y in b - 3..h - b + 3 {
-        for x in b - 3..w - b + 3 {
+    let cell = config.cell_px.max(1);
+    let mut scratch = CellScratch::default();
+    let mut corners = Vec::new();
+    for cy in 0..rows {
+        for cx in 0..cols {
+            if occupied.get(cy * cols + cx).copied().unwrap_or(false) {
+                continue;
+            }
+            let last = |c: usize, n: usize| {
+                if c + 1 == n {
+                    usize::MAX
+                } else {
+                    (c + 1) * cell
+                }
+            };
+            let (x0, x1) = ((cx * cell).max(b), last(cx, cols).min(w - b));
+            let (y0, y1) = ((cy * cell).max(b), last(cy, rows).min(h - b));
+            if x0 >= x1 || y0 >= y1 {
+                continue;
+            }
+            let (response, x, y) = strongest_in(image, (x0, x1), (y0, y1), &mut scratch);
+            if response >= config.min_response && response > 0.0 {
+                corners.push((x as f32, y as f32));
+            }
+        }
+    }
+    corners
+}
+
+/// Buffers of one cell's gradient products, reused from cell to cell.
+#[derive(Default)]
+struct CellScratch {
+    products: [Vec<f32>; 3],
+    rows: [Vec<f32>; 3],
+}
+
+/// The strongest Shi–Tomasi response over pixels `xs.0..xs.1` × `ys.0..ys.1` (5 × 5 windows
+/// of the central-difference gradients' products) and where it is; the first of equals in
+/// row-major order, `(0, _, _)` when none is positive.
+fn strongest_in(
+    image: &FloatImage,
+    xs: (usize, usize),
+    ys: (usize, usize),
+    scratch: &mut CellScratch,
+) -> (f32, usize, usize) {
+    let w = image.width;
+    // gradient products over the cell and a margin of 2 (the window's half-size)
+    let (gx0, gy0) = (xs.0 - 2, ys.0 - 2);
+    let (gw, gh) = (xs.1 - xs.0 + 4, ys.1 - ys.0 + 4);
+    for p in &mut scratch.products {
+        p.clear();
+    }
+    for y in gy0..gy0 + gh {
+        for x in gx0..gx0 + gw {
             let i = y * w + x;
             let gx = 0.5 * (image.data[i + 1] - image.data[i - 1]);
             let gy = 0.5 * (image.data[i + w] - image.data[i - w]);
-            gxx[i] = gx * gx;
-            gxy[i] = gx * gy;
-            gyy[i] = gy * gy;
+            scratch.products[0].push(gx * gx);
+            scratch.products[1].push(gx * gy);
+            scratch.products[2].push(gy * gy);
         }
     }
-    let box_rows = |g: &[f32]| -> Vec<f32> {
-        let mut out = vec![0.0f32; w * h];
-        for y in b - 2..h - b + 2 {
-            let row = &g[y * w..(y + 1) * w];
-            for x in b..w - b {
-                out[y * w + x] = row[x - 2] + row[x - 1] + row[x] + row[x + 1] + row[x + 2];
+    // horizontal sums of 5, per row of the margin-extended cell
+    let cw = xs.1 - xs.0;
+    for (row_sums, g) in scratch.rows.iter_mut().zip(&scratch.products) {
+        row_sums.clear();
+        for r in 0..gh {
+            let row = &g[r * gw..(r + 1) * gw];
+            for x in 2..2 + cw {
+                row_sums.push(row[x - 2] + row[x - 1] + row[x] + row[x + 1] + row[x + 2]);
             }
         }
-        out
-    };
-    let (sxx, sxy, syy) = (box_rows(&gxx), box_rows(&gxy), box_rows(&gyy));
-    for y in b..h - b {
-        let cell_row = (y / config.cell_px).min(rows - 1);
-        for x in b..w - b {
-            let cell = cell_row * cols + (x / config.cell_px).min(cols - 1);
-            if occupied.get(cell).copied().unwrap_or(false) {
-                continue;
-            }
-            let sum = |s: &[f32]| (y - 2..=y + 2).map(|yy| s[yy * w + x]).sum::<f32>();
-            let (a, c, d) = (sum(&sxx), sum(&sxy), sum(&syy));
-            let response = 0.5 * (a + d) - (0.25 * (a - d) * (a - d) + c * c).sqrt();
+    }
+    let mut best = (0.0f32, 0usize, 0usize);
+    for y in ys.0..ys.1 {
+        let r = y - gy0;
+        for x in xs.0..xs.1 {
+            let c = x - xs.0;
+            let sum = |s: &[f32]| (r - 2..=r + 2).map(|rr| s[rr * cw + c]).sum::<f32>();
+            let (a, m, d) = (
+                sum(&scratch.rows[0]),
+                sum(&scratch.rows[1]),
+                sum(&scratch.rows[2]),
+            );
+            let response = 0.5 * (a + d) - (0.25 * (a - d) * (a - d) + m * m).sqrt();
             let response = response / 25.0;
-            if response > best[cell].0 {
-                best[cell] = (response, x, y);
+            if response > best.0 {
+                best = (response, x, y);
             }
         }
     }
-    best.iter()
-        .filter(|(r, _, _)| *r >= config.min_response)
-        .map(|&(_, x, y)| (x as f32, y as f32))
-        .collect()
+    best
 }
 
 /// Columns and rows of the corner grid of an image.

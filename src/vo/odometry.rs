@@ -112,7 +112,7 @@ pub struct FrameResult {
     /// `JᵀJ` of the motion refinement (px⁻², (rotation, translation)); zero when lost.
     #[serde(skip)]
     pub information: Matrix6<f64>,
-    /// Processing time of the frame (images decoded), milliseconds.
+    /// Processing time of the frame, from decoded images to its pose, milliseconds.
     pub time_ms: f64,
 }
 
