@@ -54,9 +54,24 @@ pub struct VoArgs {
     /// VO configuration (TOML, fields of `VoConfig`).
     #[arg(long, value_name = "FILE")]
     pub vo_config: Option<PathBuf>,
+    /// Also write one CSV row a frame: `t,tracked,inliers,features,lost,time_ms`.
+    #[arg(long, value_name = "CSV")]
+    pub per_frame: Option<PathBuf>,
     /// Print one JSON object with the results.
     #[arg(long)]
     pub json: bool,
+}
+
+/// One CSV row a frame, with a header: what the odometry did on each frame.
+fn per_frame_csv(results: &[FrameResult]) -> String {
+    let mut text = String::from("t,tracked,inliers,features,lost,time_ms\n");
+    for r in results {
+        text.push_str(&format!(
+            "{:.3},{},{},{},{},{:.2}\n",
+            r.time_s, r.tracked, r.inliers, r.features, r.lost as u8, r.time_ms
+        ));
+    }
+    text
 }
 
 /// Arguments of `segloc eval vo`.
@@ -167,6 +182,9 @@ pub fn run(a: &VoArgs) -> anyhow::Result<i32> {
         let results = run_sequence(&sequence, &config)?;
         let poses: Vec<_> = results.iter().map(|r| (r.time_s, r.pose)).collect();
         write_atomic(&a.output, tum::tum_text(&poses).as_bytes())?;
+        if let Some(path) = &a.per_frame {
+            write_atomic(path, per_frame_csv(&results).as_bytes())?;
+        }
         let out = summary(&results, &config);
         if a.json {
             super::print_json(&out)?;
