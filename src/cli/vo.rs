@@ -54,7 +54,7 @@ pub struct VoArgs {
     /// VO configuration (TOML, fields of `VoConfig`).
     #[arg(long, value_name = "FILE")]
     pub vo_config: Option<PathBuf>,
-    /// Also write one CSV row a frame: `t,tracked,inliers,features,lost,time_ms`.
+    /// Also write one CSV row a frame: `t,tracked,inliers,features,lost,rotation_sigma_deg,time_ms`.
     #[arg(long, value_name = "CSV")]
     pub per_frame: Option<PathBuf>,
     /// Print one JSON object with the results.
@@ -64,11 +64,17 @@ pub struct VoArgs {
 
 /// One CSV row a frame, with a header: what the odometry did on each frame.
 fn per_frame_csv(results: &[FrameResult]) -> String {
-    let mut text = String::from("t,tracked,inliers,features,lost,time_ms\n");
+    let mut text = String::from("t,tracked,inliers,features,lost,rotation_sigma_deg,time_ms\n");
     for r in results {
         text.push_str(&format!(
-            "{:.3},{},{},{},{},{:.2}\n",
-            r.time_s, r.tracked, r.inliers, r.features, r.lost as u8, r.time_ms
+            "{:.3},{},{},{},{},{:.4},{:.2}\n",
+            r.time_s,
+            r.tracked,
+            r.inliers,
+            r.features,
+            r.lost as u8,
+            r.rotation_sigma_deg,
+            r.time_ms
         ));
     }
     text

@@ -170,6 +170,26 @@ pub fn estimate_motion(
     })
 }
 
+/// The largest standard deviation of the rotation, radians, that a refinement's `JᵀJ`
+/// (px⁻², (rotation, translation) order) gives for image noise of `pixel_sigma` px: the
+/// rotation block's marginal covariance `σ² (H_rr − H_rt H_tt⁻¹ H_tr)⁻¹`, whose largest
+/// eigenvalue is the worst-known direction. Infinite when the motion is not determined.
+pub fn rotation_sigma_rad(information: &Matrix6<f64>, pixel_sigma: f64) -> f64 {
+    let h_rr = information.fixed_view::<3, 3>(0, 0).into_owned();
+    let h_rt = information.fixed_view::<3, 3>(0, 3).into_owned();
+    let h_tt = information.fixed_view::<3, 3>(3, 3).into_owned();
+    let Some(h_tt_inv) = h_tt.try_inverse() else {
+        return f64::INFINITY;
+    };
+    let schur = h_rr - h_rt * h_tt_inv * h_rt.transpose();
+    let smallest = schur.symmetric_eigenvalues().min();
+    if smallest > 0.0 && smallest.is_finite() {
+        pixel_sigma / smallest.sqrt()
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// Gauss–Newton with a Huber kernel on the reprojection error of the inliers (left
 /// perturbation `T ← Exp(δ) · T`); returns the pose and `JᵀJ` (right-perturbation order is
 /// not needed by the callers: the matrix is a diagnostic).

@@ -11,7 +11,7 @@
 
 use super::corners::{cell_of, detect_corners, grid_size, CornerConfig};
 use super::klt::{track, KltConfig};
-use super::motion::{estimate_motion, Correspondence, MotionConfig};
+use super::motion::{estimate_motion, rotation_sigma_rad, Correspondence, MotionConfig};
 use super::pyramid::{FloatImage, Pyramid};
 use super::stereo_match::{match_point, StereoMatchConfig};
 use super::window::{SlidingWindow, WindowConfig};
@@ -112,6 +112,9 @@ pub struct FrameResult {
     /// `JᵀJ` of the motion refinement (px⁻², (rotation, translation)); zero when lost.
     #[serde(skip)]
     pub information: Matrix6<f64>,
+    /// The motion's worst-known rotation direction, one standard deviation at 1 px of image
+    /// noise, degrees (infinite when lost).
+    pub rotation_sigma_deg: f64,
     /// Processing time of the frame, from decoded images to its pose, milliseconds.
     pub time_ms: f64,
 }
@@ -198,6 +201,11 @@ impl StereoOdometry {
             features: self.features.len(),
             lost,
             information,
+            rotation_sigma_deg: if lost {
+                f64::INFINITY
+            } else {
+                rotation_sigma_rad(&information, 1.0).to_degrees()
+            },
             time_ms: start.elapsed().as_secs_f64() * 1e3,
         }
     }
