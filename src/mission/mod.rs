@@ -453,6 +453,8 @@ mod tests {
         bad_submap.localizer.submap.pose_sigma_m = -0.1;
         let mut bad_fusion = MissionConfig::default();
         bad_fusion.localizer.fusion.pose_sigma_m = f64::NAN;
+        let mut bad_lost_start = MissionConfig::default();
+        bad_lost_start.session_1_lost.guess_error_max = [1.0, f64::NAN, 0.0];
         for bad in [
             MissionConfig {
                 seconds_per_session: f64::NAN,
@@ -466,6 +468,7 @@ mod tests {
             },
             bad_submap,
             bad_fusion,
+            bad_lost_start,
         ] {
             assert!(matches!(
                 run_mission(1, &bad),
