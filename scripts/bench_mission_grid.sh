@@ -42,7 +42,7 @@ print("## Mission, session 1 lost against the site's rock grid (`--session1-star
 print(f"`scripts/bench_mission_grid.sh` (= `segloc mission --seed S [--session1-start lost-vs-grid] --json`, "
       f"seeds {first}–{last}) — {datetime.date.today()}, AMD EPYC, 2 cores, commit `{commit}`. Each cell: "
       "known start → lost start. Grid fixes: accepted / refused / wrong (> 10 cm or 1°) against the "
-      "0.15 m ground-truth grid; "wrong (all)" adds both sessions' loop closures and relocalizations. The end's fit onto the grid was built on seeds 1–3; 4–10 held out.\n")
+      "0.15 m ground-truth grid; 'wrong (all)' adds both sessions' loop closures and relocalizations. The end's fit onto the grid was built on seeds 1–3; 4–10 held out.\n")
 print("| seed | S1 first fix | grid fixes | wrong (all) | collisions | S1 RMSE cm | S2 RMSE cm | LAC geometric | LAC rocks |")
 print("|---|---|---|---|---|---|---|---|---|")
 tot = dict(wrong=[0, 0], coll=[0, 0], gw=0, placed=0)
