@@ -6,6 +6,7 @@ use super::print_json;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use segloc::mission::grid_start::Session1Start;
 use segloc::mission::perception::BoulderSensors;
 use segloc::mission::{
     run_mission_with, MissionConfig, MissionOutput, MissionProgress, MissionStage, Silent,
@@ -56,6 +57,20 @@ pub struct MissionArgs {
     /// Render at half resolution (640 × 360) with `--sensors rendered`.
     #[arg(long)]
     pub half: bool,
+    /// How session 1 starts: at its known pose, or lost with a seeded wrong guess,
+    /// relocalizing against the site's ground-truth rock grid (default: the mission
+    /// configuration's `session_1_start`, "known").
+    #[arg(long, value_enum)]
+    pub session1_start: Option<Session1StartArg>,
+}
+
+/// `--session1-start`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Session1StartArg {
+    /// At `start_1`, known.
+    Known,
+    /// Lost, relocalized against the site's rock grid (`session_1_start = "lost_vs_grid"`).
+    LostVsGrid,
 }
 
 /// `--sensors`.
@@ -76,7 +91,8 @@ pub fn run(
     let config = mission_config(args, relocalize, global_config_given)?;
     let segmenter = segmenter(args, &config)?;
     let output = if args.progress {
-        let bar = Bar::new(config.session_seconds());
+        let lost_1 = config.session_1_start == Session1Start::LostVsGrid;
+        let bar = Bar::new(config.session_seconds(), lost_1);
         let output = run_mission_with(args.seed, &config, &bar, segmenter);
         bar.bar.finish_and_clear();
         output?
@@ -138,6 +154,11 @@ fn mission_config(
     if args.half {
         mission.perception.render.resolution_scale = 0.5;
     }
+    match args.session1_start {
+        Some(Session1StartArg::Known) => mission.session_1_start = Session1Start::Known,
+        Some(Session1StartArg::LostVsGrid) => mission.session_1_start = Session1Start::LostVsGrid,
+        None => {}
+    }
     Ok(mission)
 }
 
@@ -165,12 +186,14 @@ struct Bar {
     session: Cell<usize>,
     /// Simulated seconds of session 1 (where session 2 starts on the bar).
     first_s: f64,
+    /// Session 1 starts lost against the site's rock grid.
+    lost_1: bool,
 }
 
 impl Bar {
     const STEPS_PER_S: f64 = 10.0;
 
-    fn new(session_seconds: [f64; 2]) -> Self {
+    fn new(session_seconds: [f64; 2], lost_1: bool) -> Self {
         let total_s: f64 = session_seconds.iter().sum();
         let bar = ProgressBar::new((total_s * Self::STEPS_PER_S) as u64);
         bar.set_style(
@@ -181,6 +204,7 @@ impl Bar {
             bar,
             session: Cell::new(0),
             first_s: session_seconds[0],
+            lost_1,
         }
     }
 }
@@ -195,6 +219,9 @@ impl MissionProgress for Bar {
                 self.bar.set_position((done_s * Self::STEPS_PER_S) as u64);
                 if self.session.replace(session) != session {
                     self.bar.set_message(match session {
+                        1 if self.lost_1 => {
+                            "session 1: lost, relocalizing against the site's grid".to_string()
+                        }
                         1 => "session 1: mapping from a known start".to_string(),
                         _ => format!("session {session}: lost, relocalizing"),
                     });
@@ -216,6 +243,23 @@ pub fn print_summary(output: &MissionOutput, out: Option<&Path>) {
             "session {}: {:.0} s, {:.1} m, RMSE {:.3} m (odometry only {:.3} m), {} collisions",
             s.session, s.duration_s, s.distance_m, s.rmse_m, s.rmse_without_global_m, s.collisions
         );
+        if let Some(l) = &s.lost_start {
+            let first = l
+                .first_fix_s
+                .map_or_else(|| "never".to_string(), |t| format!("at {t:.0} s"));
+            let rmse = l
+                .rmse_after_first_fix_m
+                .map_or_else(|| "-".to_string(), |r| format!("{r:.3} m"));
+            println!(
+                "  lost start against the {} ({} landmarks): first fix {first}, {} accepted, \
+                 {} refused, {} wrong accepted; RMSE from the first fix {rmse}",
+                l.prior,
+                l.prior_landmarks,
+                l.fixes.accepted,
+                l.fixes.refused,
+                l.fixes.wrong_accepted
+            );
+        }
     }
     println!(
         "relocalizations: {} accepted, {} refused, {} wrong accepted",
@@ -279,6 +323,7 @@ impl MissionArgs {
             segmenter: SegmenterKind::Geometric,
             model: None,
             half: false,
+            session1_start: None,
         }
     }
 }

@@ -1,17 +1,18 @@
 //! Session 2: start somewhere else with a wrong guess of the start pose and drive, feeding
-//! every camera frame to a [`Localizer`] against session 1's map; whenever the localizer
-//! re-optimises, tell the planner where the session's frame lies in the world.
+//! every camera frame to a [`crate::localizer::Localizer`] against session 1's map; whenever
+//! the localizer re-optimises, tell the planner where the session's frame lies in the world
+//! (the lost start of [`super::lost_start`]).
 
-use super::progress::{MissionProgress, MissionStage};
-use super::stream::{push_new_frames, rmse_m, scored_attempts};
+use super::lost_start::{lost_session_config, LostStart};
+use super::progress::MissionProgress;
+use super::stream::{rmse_m, scored_attempts};
 use super::{Attempt, MissionConfig, MissionError};
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::odometry_bias::OdometryBias;
-use crate::localizer::Localizer;
 use crate::sim::moon::Moon;
 use crate::sim::rendered_boulders::RenderedBoulders;
-use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
-use nalgebra::{Isometry3, Point2};
+use crate::sim::session::{SessionLog, SessionSim};
+use nalgebra::Isometry3;
 use segloc_maps::ObjectMap;
 
 /// What session 2 produced.
@@ -31,21 +32,8 @@ pub struct LocalizedSession {
     pub adjustment: Option<BoulderAdjustmentReport>,
     /// Position RMSE of the pose graph's poses before the boulder adjustment, metres.
     pub rmse_before_adjustment_m: f64,
-}
-
-/// The rocks of `prior_map` the planner should know of from its first relocalization on:
-/// boulders of known size seen at least `prior_obstacle_min_observations` times, as
-/// (centre x, y; radius) in the map's (world) frame.
-pub fn known_rocks(prior_map: &ObjectMap, config: &MissionConfig) -> Vec<(Point2<f64>, f64)> {
-    prior_map
-        .landmarks
-        .iter()
-        .filter(|l| l.observations >= config.prior_obstacle_min_observations)
-        .filter_map(|l| {
-            let size = l.size_m?;
-            Some((Point2::new(l.position.x, l.position.y), 0.5 * size))
-        })
-        .collect()
+    /// The frame at which the session was first placed in the prior map (`None`: never).
+    pub first_fix_frame: Option<usize>,
 }
 
 /// Run session 2 from `start`, believing it starts at `guess`, localizing against session
@@ -72,37 +60,19 @@ pub fn localize_session_with(
     mut rendered: Option<&mut RenderedBoulders>,
 ) -> Result<LocalizedSession, MissionError> {
     let (start, guess) = start_guess;
-    let session = SessionConfig {
-        duration_s: config.session_seconds()[1],
-        start,
-        initial_guess: Some(guess),
-        ..config.session_2().clone()
-    };
+    let duration_s = config.session_seconds()[1];
+    let session = lost_session_config(config.session_2(), duration_s, start, guess);
     let mut sim =
         SessionSim::with_rendered_boulders(moon, &session, seed, rendered.as_deref_mut())?;
-    if config.prior_map_obstacles {
-        sim.set_known_rocks_world(known_rocks(prior_map, config));
-    }
-    let mut localizer = Localizer::new(Some(prior_map.clone()), config.localizer.clone())?;
-    let mut pushed = 0;
+    let mut lost = LostStart::new(&mut sim, prior_map, (config, config.localizer.clone()), 2)?;
     while sim.step() {
-        let log = sim.log();
-        progress.update(MissionStage::Driving {
-            session: 2,
-            time_s: log.ticks.last().map_or(0.0, |t| t.time_s),
-            duration_s: session.duration_s,
-        });
-        let reoptimized = push_new_frames(&mut localizer, log, &mut pushed)?;
-        if let (true, Some(world_from_session)) = (reoptimized, localizer.prior_from_odom()) {
-            sim.set_world_from_session_estimate(&world_from_session);
-        }
+        lost.after_step(&mut sim, progress)?;
     }
     let log = sim.finish();
     if let Some(e) = rendered.and_then(|r| r.take_error()) {
         return Err(e.into());
     }
-    push_new_frames(&mut localizer, &log, &mut pushed)?;
-    let result = localizer.finish()?;
+    let result = lost.finish(&log)?;
     let attempts = scored_attempts(2, &result.attempts, &log, config);
     Ok(LocalizedSession {
         rmse_graph_m: rmse_m(&log, &result.poses),
@@ -111,6 +81,7 @@ pub fn localize_session_with(
         attempts,
         odometry_bias: result.odometry_bias,
         adjustment: result.adjustment,
+        first_fix_frame: result.first_fix_frame,
         log,
     })
 }

@@ -9,7 +9,7 @@ use crate::landmarks::FusionConfig;
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::view_bias::ViewBiasCalibration;
-use crate::localizer::Localizer;
+use crate::localizer::{Localizer, SessionResult};
 use crate::sim::moon::Moon;
 use crate::sim::rendered_boulders::RenderedBoulders;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
@@ -41,6 +41,24 @@ pub struct MappedSession {
     /// if it did: the map was fused with it (else with `view_bias`'s), and later sessions
     /// and the maps use it too.
     pub adjusted_view_bias: Option<f64>,
+    /// How a lost start against the site's rock grid went (`None`: a known start).
+    pub lost_start: Option<LostStart1Outcome>,
+}
+
+/// How session 1's lost start against the site's rock grid went
+/// ([`super::grid_start`]).
+pub struct LostStart1Outcome {
+    /// The relocalizations against the grid, scored.
+    pub attempts: Vec<Attempt>,
+    /// The frame at which the grid first placed the session (`None`: never).
+    pub first_fix_frame: Option<usize>,
+    /// Landmarks of the grid's prior map.
+    pub prior_landmarks: usize,
+    /// Rocks of the session's map paired with the grid's by the end's horizontal fit
+    /// (`None`: no fit; fewer than `session_1_lost.map_fit_min_pairs`: not applied).
+    pub map_fit_pairs: Option<usize>,
+    /// Ground points behind the end's height fit onto the grid's heights (`None`: none).
+    pub height_fit_points: Option<usize>,
 }
 
 impl MappedSession {
@@ -109,7 +127,19 @@ pub fn map_session_with(
     push_new_frames(&mut localizer, &log, &mut pushed)?;
     let result = localizer.finish()?;
     let attempts = scored_attempts(1, &result.attempts, &log, config);
-    Ok(MappedSession {
+    Ok(mapped_session(log, result, attempts, None, config))
+}
+
+/// Session 1's figures from its localizer's `result` (poses one per frame of `log`) and
+/// its scored `attempts`.
+pub(super) fn mapped_session(
+    log: SessionLog,
+    result: SessionResult,
+    attempts: Vec<Attempt>,
+    lost_start: Option<LostStart1Outcome>,
+    config: &MissionConfig,
+) -> MappedSession {
+    MappedSession {
         rmse_graph_m: rmse_m(&log, &result.poses),
         rmse_before_adjustment_m: rmse_m(&log, &result.poses_before_adjustment),
         poses: result.poses,
@@ -121,6 +151,7 @@ pub fn map_session_with(
             .view_bias
             .unwrap_or_else(|| ViewBiasCalibration::new(&config.localizer.view_bias)),
         adjusted_view_bias: result.adjusted_view_bias,
+        lost_start,
         log,
-    })
+    }
 }

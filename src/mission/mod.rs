@@ -6,6 +6,10 @@
 //! - [`mapping_session`]: session 1 — drive from a known start, every camera frame fed to a
 //!   mapping [`crate::localizer::Localizer`] (loop closures, boulder adjustment), whose map
 //!   is the prior of session 2;
+//! - [`grid_start`]: session 1 started lost instead (`session_1_start = "lost_vs_grid"`),
+//!   relocalizing against the site's rock grid until anchored, then mapping as above;
+//! - [`lost_start`]: the lost start both of those lost sessions share (a localizer against
+//!   a prior map whose fixes re-anchor the planner);
 //! - [`lost_session`]: session 2 — drive with a wrong start guess, every camera frame fed to
 //!   a [`crate::localizer::Localizer`] against session 1's map, whose corrections tell the
 //!   planner where it is;
@@ -25,7 +29,10 @@
 //! ```
 
 mod config_file;
+pub mod grid_fit;
+pub mod grid_start;
 pub mod lost_session;
+pub mod lost_start;
 pub mod mapping_session;
 pub mod maps;
 pub mod perception;
@@ -48,7 +55,9 @@ use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 pub use progress::{MissionProgress, MissionStage, Silent};
-pub use report::{Attempt, MissionOutput, MissionReport, RelocalizationCounts, SessionReport};
+pub use report::{
+    Attempt, LostStartReport, MissionOutput, MissionReport, RelocalizationCounts, SessionReport,
+};
 pub use trace::MissionTrace;
 
 /// Errors running a mission.
@@ -75,6 +84,10 @@ pub enum MissionError {
     /// The renderer of `perception.sensors = "rendered"` could not be built.
     #[error(transparent)]
     Render(#[from] crate::sim::render::RenderError),
+    /// The site's rock grid could not be made a prior map (`session_1_start =
+    /// "lost_vs_grid"`).
+    #[error("the site's rock grid as session 1's prior: {0}")]
+    GridPrior(segloc_maps::MapError),
     /// The perception front end failed.
     #[error("perception: {0}")]
     Perception(#[from] crate::perception::PerceptionError),
@@ -100,6 +113,11 @@ pub struct MissionConfig {
     pub start_2: [f64; 3],
     /// Error of session 2's start guess [dx, dy, dyaw] (m, m, rad).
     pub guess_error_2: [f64; 3],
+    /// How session 1 starts: `"known"` (at `start_1`, its odometry frame the world's) or
+    /// `"lost_vs_grid"` (a seeded wrong guess, relocalized against the site's rock grid).
+    pub session_1_start: grid_start::Session1Start,
+    /// Session 1's lost start (with `session_1_start = "lost_vs_grid"`).
+    pub session_1_lost: grid_start::LostStart1Config,
     /// Session 2's planner avoids the rocks of session 1's map from its first accepted
     /// relocalization on, placed with its latest estimate of where it is, whether or not
     /// its own cameras see them (a rock hidden behind a crest and then below the image is
@@ -139,6 +157,8 @@ impl Default for MissionConfig {
             start_1: [4.5, 0.0, std::f64::consts::FRAC_PI_2],
             start_2: [-4.5, 0.0, -std::f64::consts::FRAC_PI_2],
             guess_error_2: [0.8, -0.6, 0.25],
+            session_1_start: grid_start::Session1Start::Known,
+            session_1_lost: grid_start::LostStart1Config::default(),
             prior_map_obstacles: true,
             prior_obstacle_min_observations: 3,
             wrong_translation_m: 0.10,
@@ -246,6 +266,7 @@ impl MissionConfig {
         if all.clone().any(|v| !v.is_finite()) {
             return bad("starts and guess error must be finite");
         }
+        self.session_1_lost.validate()?;
         for (name, session) in [("session", &self.session), ("session_2", self.session_2())] {
             if let Err(e) = session.validate() {
                 return bad(&format!("{name}: {e}"));
@@ -300,14 +321,24 @@ pub fn drive_sessions_with(
     let start_2 = clear(config.start_2, config.session_2());
     let e = config.guess_error_2;
     let guess_2 = [start_2[0] + e[0], start_2[1] + e[1], start_2[2] + e[2]];
-    let one = mapping_session::map_session_with(
-        &moon,
-        config,
-        start_1,
-        seed.wrapping_mul(2),
-        progress,
-        rendered.as_mut(),
-    )?;
+    let one = match config.session_1_start {
+        grid_start::Session1Start::Known => mapping_session::map_session_with(
+            &moon,
+            config,
+            start_1,
+            seed.wrapping_mul(2),
+            progress,
+            rendered.as_mut(),
+        )?,
+        grid_start::Session1Start::LostVsGrid => grid_start::grid_start_session_with(
+            &moon,
+            config,
+            start_1,
+            (seed, seed.wrapping_mul(2)),
+            progress,
+            rendered.as_mut(),
+        )?,
+    };
     // session 2 and the maps fuse boulders with session 1's calibrated viewpoint bias
     let config = one.calibrated(config);
     let two = lost_session::localize_session_with(
@@ -422,6 +453,8 @@ mod tests {
         bad_submap.localizer.submap.pose_sigma_m = -0.1;
         let mut bad_fusion = MissionConfig::default();
         bad_fusion.localizer.fusion.pose_sigma_m = f64::NAN;
+        let mut bad_lost_start = MissionConfig::default();
+        bad_lost_start.session_1_lost.guess_error_max = [1.0, f64::NAN, 0.0];
         for bad in [
             MissionConfig {
                 seconds_per_session: f64::NAN,
@@ -435,6 +468,7 @@ mod tests {
             },
             bad_submap,
             bad_fusion,
+            bad_lost_start,
         ] {
             assert!(matches!(
                 run_mission(1, &bad),

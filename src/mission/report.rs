@@ -3,7 +3,7 @@
 use super::lost_session::LocalizedSession;
 use super::mapping_session::MappedSession;
 use super::maps::MissionMaps;
-use super::stream::{odometry_in_world, rmse_m};
+use super::stream::{odometry_in_world, rmse_from_m, rmse_m};
 use super::MissionConfig;
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::AttemptStatus;
@@ -114,6 +114,55 @@ pub struct SessionReport {
     pub relocalizations: RelocalizationCounts,
     /// Wall-clock seconds simulating.
     pub simulation_wall_s: f64,
+    /// A session that started lost: how it found itself (absent for a known start).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lost_start: Option<LostStartReport>,
+}
+
+/// How a session that started lost found itself in its prior map.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LostStartReport {
+    /// What it relocalized against: `"site rock grid"` or `"session 1 map"`.
+    pub prior: String,
+    /// Landmarks in that prior.
+    pub prior_landmarks: usize,
+    /// Session time of the first accepted fix, seconds (`None`: never placed).
+    pub first_fix_s: Option<f64>,
+    /// The relocalizations against that prior (wrong: accepted but off by more than the
+    /// mission's thresholds).
+    pub fixes: RelocalizationCounts,
+    /// Position RMSE of the session's final poses from the first fix on, metres.
+    pub rmse_after_first_fix_m: Option<f64>,
+    /// Session 1: rocks of its map paired with the grid's by the end's horizontal fit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map_fit_pairs: Option<usize>,
+    /// Session 1: ground points behind the end's height fit onto the grid's heights.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub height_fit_points: Option<usize>,
+}
+
+impl LostStartReport {
+    fn of(
+        prior: &str,
+        prior_landmarks: usize,
+        (log, poses): (&SessionLog, &[Isometry3<f64>]),
+        attempts: &[Attempt],
+        first_fix_frame: Option<usize>,
+    ) -> Self {
+        let first_fix_s = first_fix_frame
+            .and_then(|k| log.frames.get(k))
+            .map(|f| f.time_s);
+        let rmse_after_first_fix_m = first_fix_frame.map(|k| rmse_from_m(log, poses, k));
+        Self {
+            prior: prior.to_string(),
+            prior_landmarks,
+            first_fix_s,
+            fixes: RelocalizationCounts::of(attempts),
+            rmse_after_first_fix_m,
+            map_fit_pairs: None,
+            height_fit_points: None,
+        }
+    }
 }
 
 /// The LAC score summary.
@@ -144,8 +193,9 @@ pub struct MissionReport {
     pub sessions: Vec<SessionReport>,
     /// LAC scores.
     pub lac: LacSummary,
-    /// All relocalization attempts counted (session 1's loop closures and session 2's
-    /// relocalizations against session 1's map).
+    /// All relocalization attempts counted (session 1's loop closures, its relocalizations
+    /// against the site's rock grid when it started lost, and session 2's relocalizations
+    /// against session 1's map).
     pub relocalizations: RelocalizationCounts,
     /// Every attempt.
     pub attempts: Vec<Attempt>,
@@ -212,6 +262,7 @@ fn session_report(
     poses: &[Isometry3<f64>],
     adjusted: Adjusted,
     attempts: &[Attempt],
+    lost_start: Option<LostStartReport>,
 ) -> SessionReport {
     let s = log.summary();
     SessionReport {
@@ -227,6 +278,7 @@ fn session_report(
         detections: s.detections,
         relocalizations: RelocalizationCounts::of(attempts),
         simulation_wall_s: log.wall_time_s,
+        lost_start,
     }
 }
 
@@ -246,6 +298,26 @@ pub(super) fn assemble(
     truth: LacGrid,
     wall_s: f64,
 ) -> MissionOutput {
+    let grid_attempts = one.lost_start.as_ref().map_or(&[][..], |l| &l.attempts[..]);
+    let one_attempts: Vec<Attempt> = one.attempts.iter().chain(grid_attempts).cloned().collect();
+    let lost_1 = one.lost_start.as_ref().map(|l| LostStartReport {
+        map_fit_pairs: l.map_fit_pairs,
+        height_fit_points: l.height_fit_points,
+        ..LostStartReport::of(
+            "site rock grid",
+            l.prior_landmarks,
+            (&one.log, &one.poses),
+            &l.attempts,
+            l.first_fix_frame,
+        )
+    });
+    let lost_2 = LostStartReport::of(
+        "session 1 map",
+        one.map.len(),
+        (&two.log, &two.poses),
+        &two.attempts,
+        two.first_fix_frame,
+    );
     let sessions = vec![
         session_report(
             1,
@@ -256,7 +328,8 @@ pub(super) fn assemble(
                 rmse_before_adjustment_m: one.rmse_before_adjustment_m,
                 adjustment: &one.adjustment,
             },
-            &one.attempts,
+            &one_attempts,
+            lost_1,
         ),
         session_report(
             2,
@@ -268,12 +341,16 @@ pub(super) fn assemble(
                 adjustment: &two.adjustment,
             },
             &two.attempts,
+            Some(lost_2),
         ),
     ];
     let collisions = sessions.iter().map(|s| s.collisions).sum();
     let simulated: f64 = sessions.iter().map(|s| s.duration_s).sum();
     let s = &maps.score;
-    let attempts: Vec<Attempt> = one.attempts.iter().chain(&two.attempts).cloned().collect();
+    let attempts: Vec<Attempt> = one_attempts
+        .into_iter()
+        .chain(two.attempts.iter().cloned())
+        .collect();
     let trajectories = [(&one.log, &one.poses), (&two.log, &two.poses)]
         .iter()
         .map(|(log, poses)| {

@@ -76,9 +76,14 @@ pub fn detections_with_poses(
 /// Root-mean-square position error of `world_from_rover` estimates (one per frame)
 /// against the truth.
 pub fn rmse_m(log: &SessionLog, world_from_rover: &[Isometry3<f64>]) -> f64 {
+    rmse_from_m(log, world_from_rover, 0)
+}
+
+/// [`rmse_m`] over the frames from `first` on.
+pub fn rmse_from_m(log: &SessionLog, world_from_rover: &[Isometry3<f64>], first: usize) -> f64 {
     let mut sum = 0.0;
     let mut n = 0usize;
-    for (f, est) in log.frames.iter().zip(world_from_rover) {
+    for (f, est) in log.frames.iter().zip(world_from_rover).skip(first) {
         if let Some(t) = log.ticks.get(f.tick) {
             sum += (est.translation.vector - t.world_from_rover.translation.vector).norm_squared();
             n += 1;
