@@ -33,6 +33,7 @@ sections=(
   "stereo-ba|scripts/bench_stereo_ba.sh --runs $(q 3 11)"
   "vo|scripts/bench_vo.sh --runs $(q 1 3)"
   "vo-rendered|scripts/bench_vo_rendered.sh $(q --quick)"
+  "localize-images|scripts/bench_localize_images.sh $(q '1 1 60')"
   "merge|scripts/bench_merge.sh"
   "python|scripts/bench_python.sh $(q '--rounds 1 --repeat 5' '--rounds 5 --repeat 20')"
   "mapping|scripts/bench_mapping.sh"
@@ -43,6 +44,7 @@ sections=(
   "sim|scripts/bench_sim.sh $(q --quick)"
   "mission|scripts/bench_mission.sh $(q --quick)"
   "mission-rendered|scripts/bench_mission_rendered.sh $(q --quick)"
+  "mission-grid|scripts/bench_mission_grid.sh $(q '1 3' '1 10')"
   "fuzz|scripts/fuzz.sh --write --cases $(q 2000 20000)"
 )
 if [[ $list == 1 ]]; then

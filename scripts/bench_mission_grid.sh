@@ -28,7 +28,7 @@ if [[ $print == 0 ]]; then
     "$bin" mission --seed "$s" --session1-start lost-vs-grid --json > "$dir/lost/m$s.json" 2>/dev/null
   done
 fi
-python3 - "$dir" "$first" "$last" <<'PY' | tee "$dir/section.md"
+python3 - "$dir" "$first" "$last" <<'PY' > "$dir/section.md"
 import json, sys, datetime, subprocess
 d, first, last = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 sh = lambda c: subprocess.run(["sh", "-c", c], capture_output=True, text=True).stdout.strip()
@@ -62,3 +62,5 @@ n = last - first + 1
 print(f"| all | placed {tot['placed']}/{n} | wrong **{tot['gw']}** | {tot['wrong'][0]} → {tot['wrong'][1]} | "
       f"{tot['coll'][0]} → {tot['coll'][1]} | | | | |")
 PY
+python3 -c 'import sys; sys.path.insert(0, "scripts"); from bench_section import write_section; write_section("BENCHMARKS.md", "mission-grid", sys.stdin.read())' < "$dir/section.md"
+cat "$dir/section.md"
