@@ -192,7 +192,7 @@ fn region_overlaps(pixels: &[usize], region_of: &[u32]) -> Vec<(usize, usize)> {
             None => counts.push((k as usize, 1)),
         }
     }
-    counts.sort_by(|a, b| b.1.cmp(&a.1));
+    counts.sort_by_key(|c| std::cmp::Reverse(c.1));
     counts
 }
 
