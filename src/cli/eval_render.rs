@@ -6,6 +6,7 @@ use super::detect::load_frontend_config;
 use super::print_json;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use segloc::eval::render_breakdown::diagnose_frame;
 use segloc::eval::render_front_end::{
     evaluate_render, summarize, FrameScore, MatchConfig, RenderEvalOptions, Summary,
 };
@@ -47,6 +48,9 @@ pub struct EvalRenderArgs {
     /// Write every frame's rocks and detections as JSON lines here.
     #[arg(long, value_name = "FILE")]
     frames: Option<PathBuf>,
+    /// Write a diagnosis of every counted rock (stages, cause of a miss) as JSON lines here.
+    #[arg(long, value_name = "FILE")]
+    breakdown: Option<PathBuf>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -103,17 +107,30 @@ pub fn run(args: &EvalRenderArgs) -> Result<i32> {
         render,
         matching: MatchConfig::default(),
     };
-    let mut lines = String::new();
-    let scores = evaluate_render(&options, &mut front_end, |s| {
-        if let Ok(line) = serde_json::to_string(s) {
-            lines.push_str(&line);
-            lines.push('\n');
+    let geometric = front_end.config().geometric.clone();
+    let (mut lines, mut diagnoses) = (String::new(), String::new());
+    let scores = evaluate_render(&options, &mut front_end, |f| {
+        push_json_line(&mut lines, f.score);
+        if args.breakdown.is_some() {
+            for d in diagnose_frame(f.moon, f.frame, f.result, f.score, &geometric) {
+                push_json_line(&mut diagnoses, &d);
+            }
         }
     })?;
     if let Some(path) = &args.frames {
         segloc_maps::write_atomic(path, lines.as_bytes())?;
     }
+    if let Some(path) = &args.breakdown {
+        segloc_maps::write_atomic(path, diagnoses.as_bytes())?;
+    }
     report(args, &seeds, &scores, &options.matching)
+}
+
+fn push_json_line(out: &mut String, value: &impl serde::Serialize) {
+    if let Ok(line) = serde_json::to_string(value) {
+        out.push_str(&line);
+        out.push('\n');
+    }
 }
 
 fn report(

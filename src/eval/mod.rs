@@ -8,6 +8,7 @@
 //! - [`segmenter_labels`]: a segmenter's recall and precision against hand labels of
 //!   the real LAC pairs' rocks;
 //! - [`render_front_end`]: the perception front end on rendered frames against their truth;
+//!   [`render_breakdown`]: why it misses the rocks it misses;
 //! - [`stream`]: traverses replayed frame by frame through the online localizer against
 //!   another traverse's map;
 //! - [`transform_error`]: the error measures.
@@ -16,6 +17,7 @@ pub mod grid;
 pub mod landmark_quality;
 pub mod lunarloc;
 pub mod merge;
+pub mod render_breakdown;
 pub mod render_front_end;
 pub mod segmenter_labels;
 pub mod stream;

@@ -12,9 +12,9 @@
 
 use crate::mission::mapping_session::map_session;
 use crate::mission::{MissionConfig, MissionError, Silent};
-use crate::perception::{FrontEnd, PerceptionError};
+use crate::perception::{FrameResult, FrontEnd, PerceptionError};
 use crate::sim::moon::Moon;
-use crate::sim::render::{RenderConfig, RenderError, Renderer};
+use crate::sim::render::{RenderConfig, RenderError, Renderer, StereoFrame};
 
 pub use crate::sim::render::scoring::{
     score_frame, summarize, DetectionOutcome, FrameScore, MatchConfig, RockOutcome, Summary,
@@ -59,11 +59,23 @@ pub struct RenderEvalOptions {
     pub matching: MatchConfig,
 }
 
+/// One evaluated frame as the callback of [`evaluate_render`] sees it.
+pub struct EvaluatedFrame<'a> {
+    /// The moon rendered.
+    pub moon: &'a Moon,
+    /// The rendered pair and its truth.
+    pub frame: &'a StereoFrame,
+    /// The front end's output on it.
+    pub result: &'a FrameResult,
+    /// Its score.
+    pub score: &'a FrameScore,
+}
+
 /// Run the front end on rendered frames of every seed and sun; `front_end` is reused.
 pub fn evaluate_render(
     options: &RenderEvalOptions,
     front_end: &mut FrontEnd,
-    mut on_frame: impl FnMut(&FrameScore),
+    mut on_frame: impl FnMut(&EvaluatedFrame<'_>),
 ) -> Result<Vec<FrameScore>, RenderEvalError> {
     if options.every_ticks == 0 || !(options.seconds > 0.0 && options.seconds.is_finite()) {
         return Err(RenderEvalError::Config(
@@ -85,7 +97,12 @@ pub fn evaluate_render(
                 let mut score = score_frame(&frame, &result.boulders, &options.matching);
                 (score.seed, score.sun_elevation_deg, score.tick) = (seed, sun, tick);
                 score.front_end_ms = result.timing.total_ms;
-                on_frame(&score);
+                on_frame(&EvaluatedFrame {
+                    moon: &moon,
+                    frame: &frame,
+                    result: &result,
+                    score: &score,
+                });
                 scores.push(score);
             }
         }

@@ -29,6 +29,10 @@ pub struct GeometricConfig {
     pub grow_height_m: f64,
     /// Both thresholds grow by this much per metre of range (stereo noise grows with it).
     pub height_per_range: f64,
+    /// And by this much per square metre of range (metres per m²): height noise from stereo
+    /// grows faster than linearly far out, where a linear term strict enough for the far
+    /// field would hide the small rocks near by.
+    pub height_per_range_sq: f64,
     /// Disparity difference (fraction of the disparity) that still connects neighbours.
     pub connect_disparity_frac: f64,
     /// A region stops growing this far (metres, in 3D) from its seed: boulders are compact,
@@ -72,9 +76,11 @@ impl Default for GeometricConfig {
     fn default() -> Self {
         GeometricConfig {
             ground: GroundConfig::default(),
-            seed_height_m: 0.06,
-            grow_height_m: 0.025,
-            height_per_range: 0.006,
+            // chosen on rendered tuning seeds 11-15 (docs/design/front-end-recall.md)
+            seed_height_m: 0.035,
+            grow_height_m: 0.015,
+            height_per_range: 0.0,
+            height_per_range_sq: 0.0015,
             connect_disparity_frac: 0.08,
             max_extent_m: 1.2,
             min_region_px: 12,
@@ -88,6 +94,14 @@ impl Default for GeometricConfig {
             reject_touching_structures: true,
             structure_overhead_m: 3.0,
         }
+    }
+}
+
+impl GeometricConfig {
+    /// A height threshold, `base` metres at zero range, at range `z_m`:
+    /// `base + height_per_range · z + height_per_range_sq · z²`.
+    pub fn threshold_at(&self, base: f64, z_m: f64) -> f64 {
+        base + self.height_per_range * z_m + self.height_per_range_sq * z_m * z_m
     }
 }
 
@@ -115,11 +129,67 @@ impl Segmenter for GeometricSegmenter {
     }
 }
 
+/// Why the geometric segmenter dropped a grown region (diagnostics).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum RegionDrop {
+    /// Fewer pixels than `min_region_px`.
+    TooSmall,
+    /// Touches, stands near or under something higher than `max_height_m` (a structure).
+    Structure,
+    /// Reaches higher than `max_height_m` above the ground.
+    TooHigh,
+    /// Its lowest pixel floats more than `max_base_height_m` above the ground.
+    Floating,
+    /// Mostly in hard shadow without a lit face.
+    Shadow,
+}
+
+/// A grown region of the geometric segmenter and what became of it.
+#[derive(Clone, Debug)]
+pub struct Region {
+    /// Its pixels, indices into the disparity map (`y * width + x`).
+    pub pixels: Vec<usize>,
+    /// Its mask in left-image pixels, or why it was dropped.
+    pub outcome: Result<Mask, RegionDrop>,
+}
+
 /// Masks (in left-image pixels) of what stands out of the ground.
 pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> Vec<Mask> {
+    let mut masks = Vec::new();
+    segment_geometric_with(input, config, |_, outcome| {
+        if let Ok(mask) = outcome {
+            masks.push(mask);
+        }
+    });
+    masks
+}
+
+/// Every grown region with its outcome (kept as a mask or dropped, and why), in seed
+/// order: [`segment_geometric`] with its diagnostics.
+pub fn segment_geometric_regions(
+    input: &SegmentInput<'_>,
+    config: &GeometricConfig,
+) -> Vec<Region> {
+    let mut regions = Vec::new();
+    segment_geometric_with(input, config, |pixels, outcome| {
+        regions.push(Region {
+            pixels: pixels.to_vec(),
+            outcome,
+        })
+    });
+    regions
+}
+
+/// The segmenter's loop: grows every region from its seed and hands each (pixels, outcome)
+/// to `emit` in seed order.
+fn segment_geometric_with(
+    input: &SegmentInput<'_>,
+    config: &GeometricConfig,
+    mut emit: impl FnMut(&[usize], Result<Mask, RegionDrop>),
+) {
     let disparity = input.disparity;
     let Some(heights) = height_above_ground(disparity, &config.ground) else {
-        return Vec::new();
+        return;
     };
     let (w, h) = (disparity.width, disparity.height);
     let scene = Scene {
@@ -142,7 +212,7 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         vec![f32::MIN; w * h]
     };
     let mut label = vec![u32::MAX; w * h];
-    let mut masks = Vec::new();
+    let mut next_id = 1u32;
     let mut stack = Vec::new();
     let mut region = Vec::new();
     for seed in 0..w * h {
@@ -150,7 +220,8 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         if label[seed] != u32::MAX || !is_seed {
             continue;
         }
-        let id = masks.len() as u32 + 1;
+        let id = next_id;
+        next_id += 1;
         let touches_structure = structure_peak[seed] > config.max_height_m as f32
             || (config.reject_touching_structures
                 && near_structure(
@@ -162,10 +233,12 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
                     config,
                 ));
         scene.grow(seed, id, &mut label, &mut stack, &mut region);
-        if region.len() < config.min_region_px
-            || (touches_structure && config.reject_touching_structures)
-        {
-            masks.push(None);
+        if region.len() < config.min_region_px {
+            emit(&region, Err(RegionDrop::TooSmall));
+            continue;
+        }
+        if touches_structure && config.reject_touching_structures {
+            emit(&region, Err(RegionDrop::Structure));
             continue;
         }
         extend_down_face(
@@ -180,11 +253,12 @@ pub fn segment_geometric(input: &SegmentInput<'_>, config: &GeometricConfig) -> 
         );
         let mask = scene.boulder_score(&region, seed).and_then(|score| {
             let pixels: Vec<(usize, usize)> = region.iter().map(|&p| (p % w, p / w)).collect();
-            Mask::from_pixels(&pixels, score).map(|m| m.upscaled(disparity.scale))
+            Mask::from_pixels(&pixels, score)
+                .map(|m| m.upscaled(disparity.scale))
+                .ok_or(RegionDrop::TooSmall)
         });
-        masks.push(mask);
+        emit(&region, mask);
     }
-    masks.into_iter().flatten().collect()
 }
 
 /// The left image's intensity at the disparity map's resolution (mean of each block).
@@ -222,8 +296,8 @@ struct Scene<'a> {
 impl Scene<'_> {
     /// A height threshold (`base` metres at zero range) at pixel `i`'s range.
     fn threshold(&self, base: f64, i: usize) -> f32 {
-        let z = self.heights.depth_m[i] as f64;
-        (base + self.config.height_per_range * z) as f32
+        self.config
+            .threshold_at(base, self.heights.depth_m[i] as f64) as f32
     }
 
     /// Pixel `p` in 3D, camera frame.
@@ -289,9 +363,9 @@ impl Scene<'_> {
             + 1
     }
 
-    /// The score of a grown region as a boulder, or `None` when it is no boulder: too high,
+    /// The score of a grown region as a boulder, or why it is no boulder: too high,
     /// floating, under a structure, or lying in hard shadow without a lit face.
-    fn boulder_score(&self, region: &[usize], seed: usize) -> Option<f32> {
+    fn boulder_score(&self, region: &[usize], seed: usize) -> Result<f32, RegionDrop> {
         let config = self.config;
         let hag = &self.heights.above_ground_m;
         let intensity = &self.intensity;
@@ -307,13 +381,19 @@ impl Scene<'_> {
             &self.disparity.data,
             &self.disparity.camera,
         );
-        if peak > config.max_height_m
-            || base > config.max_base_height_m
-            || (config.reject_touching_structures
-                && under_structure(region, hag, data, w, camera, config))
-            || (shadow > config.max_shadow_fraction && lit < config.min_sunlit_fraction)
+        if peak > config.max_height_m {
+            return Err(RegionDrop::TooHigh);
+        }
+        if base > config.max_base_height_m {
+            return Err(RegionDrop::Floating);
+        }
+        if config.reject_touching_structures
+            && under_structure(region, hag, data, w, camera, config)
         {
-            return None;
+            return Err(RegionDrop::Structure);
+        }
+        if shadow > config.max_shadow_fraction && lit < config.min_sunlit_fraction {
+            return Err(RegionDrop::Shadow);
         }
         // sunlit face: a clearly brighter part than the region's median
         let mut values: Vec<u8> = region.iter().map(|&p| intensity[p]).collect();
@@ -325,11 +405,11 @@ impl Scene<'_> {
             .count() as f64
             / values.len() as f64;
         let z = self.heights.depth_m[seed] as f64;
-        let prominence = peak / (config.seed_height_m + config.height_per_range * z);
+        let prominence = peak / config.threshold_at(config.seed_height_m, z);
         let score = ((0.4 + 0.15 * prominence.min(4.0) + 0.3 * (sunlit * 4.0).min(1.0))
             * (1.0 - shadow).max(lit))
         .clamp(0.0, 1.0);
-        Some(score as f32)
+        Ok(score as f32)
     }
 }
 
@@ -500,7 +580,7 @@ fn extend_down_face(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::perception::StereoCamera;
+    use crate::perception::{GrayImage, StereoCamera};
 
     /// A 10 × 10 map: a low region (rows 6–8, columns 3–5, 0.3 m high) at disparity 10 and
     /// one pixel `above` at row 2 with the given column, disparity and height.
@@ -526,6 +606,76 @@ mod tests {
             &camera,
             &GeometricConfig::default(),
         )
+    }
+
+    #[test]
+    fn the_threshold_grows_with_the_square_of_range() {
+        let c = GeometricConfig {
+            seed_height_m: 0.03,
+            height_per_range: 0.001,
+            height_per_range_sq: 0.002,
+            ..GeometricConfig::default()
+        };
+        assert!((c.threshold_at(0.03, 0.0) - 0.03).abs() < 1e-12);
+        assert!((c.threshold_at(0.03, 5.0) - (0.03 + 0.005 + 0.05)).abs() < 1e-12);
+    }
+
+    /// A flat ground 1 m below a 320 × 180 camera, with vertical faces (constant disparity:
+    /// the ground's at their bottom row) of `(column, bottom row, width, height)` pixels.
+    fn ground_with_faces(faces: &[(usize, usize, usize, usize)]) -> (DisparityMap, GrayImage) {
+        let camera = StereoCamera::default().for_size(320, 180).unwrap();
+        let (w, h) = (camera.width, camera.height);
+        let ground = |y: usize| {
+            let v = y as f64 - camera.cy;
+            (v > 2.0).then(|| (camera.fx * camera.baseline_m * v / camera.fy) as f32)
+        };
+        let mut data: Vec<f32> = (0..w * h)
+            .map(|i| ground(i / w).unwrap_or(f32::NAN))
+            .collect();
+        for &(x0, bottom, fw, fh) in faces {
+            let d = ground(bottom).unwrap();
+            for y in bottom + 1 - fh..=bottom {
+                for x in x0..x0 + fw {
+                    data[y * w + x] = d;
+                }
+            }
+        }
+        let disparity = DisparityMap {
+            width: w,
+            height: h,
+            data,
+            scale: 1,
+            camera,
+        };
+        (disparity, GrayImage::new(w, h, vec![120; w * h]).unwrap())
+    }
+
+    #[test]
+    fn regions_report_why_they_were_dropped() {
+        // a 12 × 12 px face (26 cm high) and a 2 × 6 px one (6 cm high), both at 2.9 m
+        let (disparity, left) = ground_with_faces(&[(100, 170, 12, 12), (250, 170, 2, 6)]);
+        let input = SegmentInput {
+            left: &left,
+            disparity: &disparity,
+            camera: &disparity.camera,
+        };
+        let config = GeometricConfig::default();
+        let regions = segment_geometric_regions(&input, &config);
+        let masks = segment_geometric(&input, &config);
+        let kept: Vec<&Mask> = regions
+            .iter()
+            .filter_map(|r| r.outcome.as_ref().ok())
+            .collect();
+        assert_eq!(kept.len(), masks.len());
+        assert_eq!(masks.len(), 1, "{regions:?}");
+        assert!(masks[0].contains(105, 165));
+        let small = regions
+            .iter()
+            .find(|r| r.pixels.contains(&(165 * 320 + 250)));
+        assert_eq!(
+            small.map(|r| r.outcome.clone()),
+            Some(Err(RegionDrop::TooSmall))
+        );
     }
 
     #[test]

@@ -41,7 +41,7 @@ pub mod unet_decoder;
 
 pub use boulders::{boulders_from_masks, Boulder, BoulderConfig, Rejection};
 pub use front_end::{FrameResult, FrontEnd, FrontEndConfig, FrontEndTiming};
-pub use geometric::{GeometricConfig, GeometricSegmenter};
+pub use geometric::{GeometricConfig, GeometricSegmenter, Region, RegionDrop};
 pub use mask::Mask;
 pub use segmenter::{SegmentInput, Segmenter};
 pub use unet_decoder::{decode_unet, UnetDecoderConfig};

@@ -1,0 +1,364 @@
+//! Why the front end misses a rendered rock: one diagnosis per counted truth rock of a frame.
+//!
+//! For each rock recall counts ([`score_frame`](super::render_front_end::score_frame)), on
+//! the disparity map's grid: its true protrusion above the terrain, the stereo on its pixels
+//! (valid fraction, depth error against the rendered depth), the estimated height above the
+//! ground, the geometric segmenter's regions covering it (kept or dropped, and why), the
+//! boulder stage's verdict on their masks, and the match. A missed rock gets the first cause
+//! along the pipeline ([`miss_cause`]). `segloc eval render --breakdown FILE` writes them.
+
+use crate::perception::geometric::segment_geometric_regions;
+use crate::perception::ground::height_above_ground;
+use crate::perception::{FrameResult, GeometricConfig, RegionDrop, SegmentInput};
+use crate::sim::moon::Moon;
+use crate::sim::render::scoring::FrameScore;
+use crate::sim::render::StereoFrame;
+use serde::Serialize;
+
+/// A counted rock of one frame, seen through the front end's stages.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RockDiagnosis {
+    /// Seed of the moon.
+    pub seed: u64,
+    /// Sun elevation, degrees.
+    pub sun_elevation_deg: f64,
+    /// Simulator tick of the frame.
+    pub tick: usize,
+    /// Rock index in the moon.
+    pub id: usize,
+    /// Diameter, metres.
+    pub size_m: f64,
+    /// Range of its visible centre, metres.
+    pub range_m: f64,
+    /// Top of the rock above the terrain under its centre, metres.
+    pub protrusion_m: f64,
+    /// Its pixels on the disparity map's grid.
+    pub pixels: usize,
+    /// Fraction of them with a valid disparity.
+    pub valid_fraction: f64,
+    /// Median |stereo depth − rendered depth| on them, metres (NaN without depth).
+    pub depth_error_m: f64,
+    /// Highest estimated height above the local ground on them, metres (NaN: none).
+    pub peak_height_m: f64,
+    /// The seed threshold at its range, metres.
+    pub seed_threshold_m: f64,
+    /// Pixels above the seed threshold.
+    pub seed_pixels: usize,
+    /// Fraction of its pixels darker than the segmenter's shadow level.
+    pub shadow_fraction: f64,
+    /// Fraction of its pixels brighter than the segmenter's sunlit level.
+    pub lit_fraction: f64,
+    /// Fraction of its pixels in the region covering most of it (0: none).
+    pub region_cover: f64,
+    /// Fraction of that region's pixels on this rock.
+    pub region_purity: f64,
+    /// Fraction of that region's pixels on other rocks.
+    pub region_other_rocks: f64,
+    /// Regions (kept or not) covering at least a quarter of its pixels.
+    pub regions_over_quarter: usize,
+    /// Distance of the nearest boulder (from the main region's mask) to its visible centre,
+    /// metres (NaN: no boulder).
+    pub boulder_error_m: f64,
+    /// Range of that boulder minus the range of the visible centre, metres (the error's
+    /// component along the line of sight; NaN: no boulder).
+    pub boulder_range_error_m: f64,
+    /// Whether a detection matched it.
+    pub detected: bool,
+    /// The first cause along the pipeline for a missed rock; "detected" otherwise.
+    pub cause: String,
+}
+
+/// The diagnoses of every counted rock of a frame (`score` is the frame's score,
+/// `result` the front end's output on `frame`, `geometric` its segmenter's settings).
+pub fn diagnose_frame(
+    moon: &Moon,
+    frame: &StereoFrame,
+    result: &FrameResult,
+    score: &FrameScore,
+    geometric: &GeometricConfig,
+) -> Vec<RockDiagnosis> {
+    let disparity = &result.disparity;
+    let (w, h, s) = (disparity.width, disparity.height, disparity.scale);
+    let full_w = frame.left.width;
+    let sample = |p: usize| ((p / w) * s + s / 2) * full_w + (p % w) * s + s / 2;
+    let heights = height_above_ground(disparity, &geometric.ground);
+    let input = SegmentInput {
+        left: &frame.left,
+        disparity,
+        camera: &disparity.camera,
+    };
+    let regions = segment_geometric_regions(&input, geometric);
+    let mut region_of = vec![u32::MAX; w * h];
+    for (k, r) in regions.iter().enumerate() {
+        for &p in &r.pixels {
+            region_of[p] = k as u32;
+        }
+    }
+    let instance: Vec<u32> = (0..w * h).map(|p| frame.instance[sample(p)]).collect();
+    let mut out = Vec::new();
+    for rock in score.rocks.iter().filter(|r| r.counted) {
+        let mine: Vec<usize> = (0..w * h)
+            .filter(|&p| instance[p] == rock.id as u32 + 1)
+            .collect();
+        let n = mine.len().max(1) as f64;
+        let truth = &moon.rocks()[rock.id];
+        let protrusion_m =
+            truth.center.z + truth.radius_m - moon.height_at(truth.center.x, truth.center.y);
+        let threshold = geometric.threshold_at(geometric.seed_height_m, rock.range_m);
+        let mut errors = Vec::new();
+        let (mut valid, mut seeds, mut peak) = (0usize, 0usize, f64::NAN);
+        for &p in &mine {
+            if let Some(z) = disparity.depth_m(p % w, p / w) {
+                valid += 1;
+                errors.push((z - frame.depth_m[sample(p)] as f64).abs());
+            }
+            if let Some(hm) = &heights {
+                let v = hm.above_ground_m[p] as f64;
+                if v.is_finite() {
+                    peak = if peak.is_nan() { v } else { peak.max(v) };
+                    if v > geometric.threshold_at(geometric.seed_height_m, hm.depth_m[p] as f64) {
+                        seeds += 1;
+                    }
+                }
+            }
+        }
+        errors.sort_by(f64::total_cmp);
+        let gray = |p: usize| frame.left.data[sample(p)];
+        let frac =
+            |keep: &dyn Fn(u8) -> bool| mine.iter().filter(|&&p| keep(gray(p))).count() as f64 / n;
+        let regions_cover = region_overlaps(&mine, &region_of);
+        let main = regions_cover.first().copied();
+        let (region_cover, region_purity, region_other_rocks) =
+            main.map_or((0.0, 0.0, 0.0), |(k, c)| {
+                let r = &regions[k];
+                let others = r
+                    .pixels
+                    .iter()
+                    .filter(|&&p| instance[p] != 0 && instance[p] != rock.id as u32 + 1)
+                    .count();
+                (
+                    c as f64 / n,
+                    c as f64 / r.pixels.len() as f64,
+                    others as f64 / r.pixels.len() as f64,
+                )
+            });
+        let (boulder_error_m, boulder_range_error_m, verdict) = main
+            .map(|(k, _)| main_verdict(k, &regions, result, frame, rock.id))
+            .unwrap_or((f64::NAN, f64::NAN, Verdict::NoMask));
+        let mut d = RockDiagnosis {
+            seed: score.seed,
+            sun_elevation_deg: score.sun_elevation_deg,
+            tick: score.tick,
+            id: rock.id,
+            size_m: rock.size_m,
+            range_m: rock.range_m,
+            protrusion_m,
+            pixels: mine.len(),
+            valid_fraction: valid as f64 / n,
+            depth_error_m: errors.get(errors.len() / 2).copied().unwrap_or(f64::NAN),
+            peak_height_m: peak,
+            seed_threshold_m: threshold,
+            seed_pixels: seeds,
+            shadow_fraction: frac(&|v| v < geometric.shadow_level),
+            lit_fraction: frac(&|v| v > geometric.sunlit_level),
+            region_cover,
+            region_purity,
+            region_other_rocks,
+            regions_over_quarter: regions_cover
+                .iter()
+                .filter(|(_, c)| *c as f64 >= 0.25 * n)
+                .count(),
+            boulder_error_m,
+            boulder_range_error_m,
+            detected: rock.error_m.is_some(),
+            cause: String::new(),
+        };
+        d.cause = miss_cause(&d, &verdict, main.map(|(k, _)| &regions[k].outcome));
+        out.push(d);
+    }
+    out
+}
+
+/// The regions covering `pixels`, with how many of them each covers, most first.
+fn region_overlaps(pixels: &[usize], region_of: &[u32]) -> Vec<(usize, usize)> {
+    let mut counts: Vec<(usize, usize)> = Vec::new();
+    for &p in pixels {
+        let k = region_of[p];
+        if k == u32::MAX {
+            continue;
+        }
+        match counts.iter_mut().find(|(r, _)| *r == k as usize) {
+            Some(c) => c.1 += 1,
+            None => counts.push((k as usize, 1)),
+        }
+    }
+    counts.sort_by_key(|c| std::cmp::Reverse(c.1));
+    counts
+}
+
+/// What the boulder stage made of a region's mask.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Verdict {
+    /// No region / mask.
+    NoMask,
+    /// The mask was rejected (the rejection's name).
+    Rejected(String),
+    /// A boulder.
+    Boulder,
+}
+
+/// The boulder stage's verdict on region `k`'s mask, and the boulder's distance to rock
+/// `rock`'s visible centre.
+fn main_verdict(
+    k: usize,
+    regions: &[crate::perception::Region],
+    result: &FrameResult,
+    frame: &StereoFrame,
+    rock: usize,
+) -> (f64, f64, Verdict) {
+    let Ok(mask) = &regions[k].outcome else {
+        return (f64::NAN, f64::NAN, Verdict::NoMask);
+    };
+    let Some(m) = result.masks.iter().position(|x| x == mask) else {
+        return (f64::NAN, f64::NAN, Verdict::NoMask);
+    };
+    match &result.verdicts[m] {
+        Err(rejection) => (
+            f64::NAN,
+            f64::NAN,
+            Verdict::Rejected(format!("{rejection:?}")),
+        ),
+        Ok(b) => {
+            let [x, y, z] = result.boulders[*b].position_camera;
+            let p_left = nalgebra::Point3::new(x, y, z);
+            let Some(truth) = frame.rocks.iter().find(|r| r.id == rock) else {
+                return (f64::NAN, f64::NAN, Verdict::Boulder);
+            };
+            let c_world = nalgebra::Point3::from(truth.visible_center_world);
+            let c_left = frame.world_from_left.inverse() * c_world;
+            let e = (frame.world_from_left * p_left - c_world).norm();
+            (
+                e,
+                p_left.coords.norm() - c_left.coords.norm(),
+                Verdict::Boulder,
+            )
+        }
+    }
+}
+
+/// The first cause along the pipeline why a rock was missed ("detected" when it was not).
+pub fn miss_cause(
+    d: &RockDiagnosis,
+    verdict: &Verdict,
+    main_outcome: Option<&Result<crate::perception::Mask, RegionDrop>>,
+) -> String {
+    if d.detected {
+        return "detected".into();
+    }
+    if d.valid_fraction < 0.3 {
+        return "stereo: < 30 % valid disparity".into();
+    }
+    if d.seed_pixels == 0 {
+        return if d.protrusion_m < d.seed_threshold_m {
+            "threshold: protrudes less than the seed height".into()
+        } else {
+            "height: protrudes enough, estimated too low".into()
+        };
+    }
+    match main_outcome {
+        None => return "segmenter: seed pixels but no region".into(),
+        Some(Err(drop)) => return format!("segmenter: region dropped ({drop:?})"),
+        Some(Ok(_)) => {}
+    }
+    if d.region_other_rocks > 0.25 {
+        return "segmenter: merged with another rock".into();
+    }
+    if d.region_purity < 0.35 {
+        return "segmenter: merged with the ground".into();
+    }
+    if d.regions_over_quarter >= 2 {
+        return "segmenter: split".into();
+    }
+    match verdict {
+        Verdict::Rejected(r) => format!("boulders: rejected ({r})"),
+        Verdict::NoMask => "segmenter: no mask".into(),
+        Verdict::Boulder if d.region_cover < 0.5 => {
+            "centroid: region covers < 50 % of the rock".into()
+        }
+        Verdict::Boulder => "centroid: off by more than 0.3 × size".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rock() -> RockDiagnosis {
+        RockDiagnosis {
+            seed: 1,
+            sun_elevation_deg: 15.0,
+            tick: 0,
+            id: 0,
+            size_m: 0.12,
+            range_m: 4.0,
+            protrusion_m: 0.07,
+            pixels: 40,
+            valid_fraction: 0.9,
+            depth_error_m: 0.02,
+            peak_height_m: 0.07,
+            seed_threshold_m: 0.06,
+            seed_pixels: 5,
+            shadow_fraction: 0.3,
+            lit_fraction: 0.2,
+            region_cover: 0.8,
+            region_purity: 0.8,
+            region_other_rocks: 0.0,
+            regions_over_quarter: 1,
+            boulder_error_m: 0.05,
+            boulder_range_error_m: 0.04,
+            detected: false,
+            cause: String::new(),
+        }
+    }
+
+    #[test]
+    fn the_first_failing_stage_is_the_cause() {
+        let ok: Result<crate::perception::Mask, RegionDrop> =
+            Ok(crate::perception::Mask::from_pixels(&[(0, 0)], 1.0).unwrap());
+        let cause = |d: &RockDiagnosis, v: &Verdict| miss_cause(d, v, Some(&ok));
+        assert_eq!(
+            cause(&rock(), &Verdict::Boulder),
+            "centroid: off by more than 0.3 × size"
+        );
+        let detected = RockDiagnosis {
+            detected: true,
+            ..rock()
+        };
+        assert_eq!(cause(&detected, &Verdict::Boulder), "detected");
+        let no_depth = RockDiagnosis {
+            valid_fraction: 0.1,
+            ..rock()
+        };
+        assert!(cause(&no_depth, &Verdict::Boulder).starts_with("stereo"));
+        let low = RockDiagnosis {
+            seed_pixels: 0,
+            protrusion_m: 0.05,
+            ..rock()
+        };
+        assert!(cause(&low, &Verdict::Boulder).starts_with("threshold"));
+        let under = RockDiagnosis {
+            seed_pixels: 0,
+            ..rock()
+        };
+        assert!(cause(&under, &Verdict::Boulder).starts_with("height"));
+        let merged = RockDiagnosis {
+            region_other_rocks: 0.5,
+            ..rock()
+        };
+        assert!(cause(&merged, &Verdict::Boulder).contains("another rock"));
+        let rejected = Verdict::Rejected("Size".into());
+        assert_eq!(cause(&rock(), &rejected), "boulders: rejected (Size)");
+        let dropped = Err(RegionDrop::Shadow);
+        assert!(miss_cause(&rock(), &Verdict::NoMask, Some(&dropped)).contains("Shadow"));
+    }
+}
