@@ -9,7 +9,7 @@
 //! window of frames and their points by bundle adjustment on the pose graph's stereo
 //! projection factors. [`StereoOdometry`] runs the stages ([`odometry`]); [`sequence`] reads
 //! sequences (KITTI layout; a `segloc sim render` folder in [`rendered_sequence`], a `.lac`
-//! recording in [`lac_sequence`]), [`tum`] writes trajectories and [`segment_drift`] scores
+//! recording in [`lac_sequence`]), [`tum`] writes trajectories and [`mod@segment_drift`] scores
 //! them as KITTI does.
 
 pub mod corners;
