@@ -2,7 +2,7 @@
 
 use super::print_json;
 use super::relocalize::parse_dof;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Subcommand;
 use segloc::align::Dof;
 use segloc::eval::landmark_quality::{match_map, match_rocks};
@@ -17,7 +17,7 @@ use segloc::localizer::LocalizerConfig;
 use segloc::relocalize::RelocalizeConfig;
 use segloc_maps::{read_grid_csv, read_lunarloc_traverse};
 use serde_json::json;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Evaluation commands.
 #[derive(Subcommand, Debug)]
@@ -409,10 +409,11 @@ fn print_table(report: &EvalReport) {
 /// `segloc eval stream`.
 fn run_stream(args: &StreamArgs, config: &RelocalizeConfig) -> Result<i32> {
     let choice = parse_pairs(&args.pairs)?;
-    let localizer = match &args.localizer_config {
-        Some(path) => load_localizer_config(path)?,
-        None => LocalizerConfig::default(),
-    };
+    let localizer = super::load_toml(
+        args.localizer_config.as_deref(),
+        "localizer config",
+        LocalizerConfig::validate,
+    )?;
     let drift = DriftConfig {
         yaw_walk_rad_per_sqrt_m: args.yaw_walk_rad_per_sqrt_m,
         yaw_drift_deg_per_10m: args.yaw_drift_deg_per_10m,
@@ -465,18 +466,6 @@ fn parse_pairs(text: &str) -> Result<PairChoice> {
         }
     }
     Ok(PairChoice::List(list))
-}
-
-/// A `LocalizerConfig` from a TOML file, checked.
-fn load_localizer_config(path: &Path) -> Result<LocalizerConfig> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read localizer config {}", path.display()))?;
-    let config: LocalizerConfig =
-        toml::from_str(&text).with_context(|| format!("localizer config {}", path.display()))?;
-    config
-        .validate()
-        .with_context(|| format!("localizer config {}", path.display()))?;
-    Ok(config)
 }
 
 /// Centimetres with two decimals, `-` when absent.

@@ -15,7 +15,7 @@ use segloc_maps::frames::{read_frames, write_frames};
 use segloc_maps::tum::write_tum;
 use serde_json::json;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `segloc localize`.
 #[derive(Args, Debug)]
@@ -83,7 +83,11 @@ pub struct LocalizeArgs {
 
 /// Run `segloc localize`: 0 success, 1 no fix against the prior map, 2 bad input.
 pub fn run(args: &LocalizeArgs) -> Result<i32> {
-    let config = load_localizer_config(args.localizer_config.as_deref())?;
+    let config = super::load_toml(
+        args.localizer_config.as_deref(),
+        "localizer config",
+        LocalizerConfig::validate,
+    )?;
     if args.print_config {
         print!("{}", toml::to_string_pretty(&config)?);
         return Ok(0);
@@ -161,7 +165,11 @@ fn read_drive(args: &LocalizeArgs) -> Result<Drive> {
             images: None,
         });
     }
-    let config = load_stream_config(args.stream_config.as_deref())?;
+    let config = super::load_toml(
+        args.stream_config.as_deref(),
+        "image stream config",
+        ImageStreamConfig::validate,
+    )?;
     let (sequence, source) = match (&args.lac, &args.images) {
         (Some(lac), _) => (StereoSequence::read_lac(lac)?, lac.clone()),
         (_, Some(dir)) => (StereoSequence::read_rendered(dir)?, dir.clone()),
@@ -194,36 +202,6 @@ fn image_summary(outputs: &[StreamOutput], config: &ImageStreamConfig) -> serde_
         "front_end_ms": stats(&front_end_ms),
         "config": config,
     })
-}
-
-/// The image stream's settings from `path`, or the defaults.
-fn load_stream_config(path: Option<&Path>) -> Result<ImageStreamConfig> {
-    let Some(path) = path else {
-        return Ok(ImageStreamConfig::default());
-    };
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let config: ImageStreamConfig =
-        toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    config
-        .validate()
-        .with_context(|| format!("{}", path.display()))?;
-    Ok(config)
-}
-
-/// The configuration from `path`, or the defaults; the error names the file and the field.
-fn load_localizer_config(path: Option<&Path>) -> Result<LocalizerConfig> {
-    let Some(path) = path else {
-        return Ok(LocalizerConfig::default());
-    };
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let config: LocalizerConfig =
-        toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    config
-        .validate()
-        .with_context(|| format!("{}", path.display()))?;
-    Ok(config)
 }
 
 /// The poses to write: from the first fix on (every frame with `--all-frames`), the final

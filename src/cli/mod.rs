@@ -100,6 +100,27 @@ pub fn run(cli: Cli) -> Result<i32> {
     }
 }
 
+/// A configuration from a TOML file, or `T::default()` without one, checked by `validate`;
+/// every error names the file, as `what` (e.g. "localizer config") and its path.
+pub fn load_toml<T, E>(
+    path: Option<&Path>,
+    what: &str,
+    validate: impl Fn(&T) -> std::result::Result<(), E>,
+) -> Result<T>
+where
+    T: Default + serde::de::DeserializeOwned,
+    E: std::error::Error + Send + Sync + 'static,
+{
+    let Some(path) = path else {
+        return Ok(T::default());
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    let config: T = toml::from_str(&text).with_context(|| format!("{what} {}", path.display()))?;
+    validate(&config).with_context(|| format!("{what} {}", path.display()))?;
+    Ok(config)
+}
+
 /// The configuration from `path`, or the defaults.
 pub fn load_config(path: Option<&Path>) -> Result<RelocalizeConfig> {
     let Some(path) = path else {
