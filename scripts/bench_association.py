@@ -369,9 +369,7 @@ def cmd_report(a):
     L.append("")
 
     # the issue's targets
-    L.append("Targets (from the issue; times are medians over seeds):\n")
-    L.append("| target | measured | met? |")
-    L.append("|---|---|---|")
+    items = []
     names = {"time_ms": "time", "precision": "precision", "recall": "recall"}
     for name, _, title, targets in KINDS:
         for metric, op, bound in targets:
@@ -380,17 +378,18 @@ def cmd_report(a):
             worst = {"time_ms": summary[name]["max_time_ms"], "precision": summary[name]["min_precision"],
                      "recall": summary[name]["min_recall"]}[metric]
             extra = f" (worst seed {fmt(worst, 3 if unit == '' else 2)}{unit})" if res["seeds"] > 1 else ""
-            L.append(f"| {name}: {names[metric]} {'≤' if op == '<=' else '≥'} {bound:g}{unit} "
-                     f"| {fmt(v, 3 if unit == '' else 2)}{unit}{extra} | {check(v, op, bound)} |")
+            items.append(f"{name} {names[metric]} {'≤' if op == '<=' else '≥'} {bound:g}{unit}: "
+                         f"{fmt(v, 3 if unit == '' else 2)}{unit}{extra}, {check(v, op, bound)}")
     e2e_walls = []
     for row in res["e2e"]:
         w = med([r["wall_ms"] for r in row["runs"]]) if row["runs"] else None
         e2e_walls.append(w)
     worst_e2e = max([w for w in e2e_walls if w is not None], default=None)
     complete = all(w is not None for w in e2e_walls) and e2e_walls
-    L.append(f"| paper pair end to end ≤ {E2E_TARGET_MS:g} ms (process wall time, every pair) "
-             f"| worst pair {fmt(worst_e2e)} ms | "
-             f"{check(worst_e2e, '<=', E2E_TARGET_MS) if complete else '**not met** (a pair failed)'} |")
+    items.append(f"paper pair end to end ≤ {E2E_TARGET_MS:g} ms (process wall time, every pair): "
+                 f"worst pair {fmt(worst_e2e)} ms, "
+                 f"{check(worst_e2e, '<=', E2E_TARGET_MS) if complete else '**not met** (a pair failed)'}")
+    L.append("Targets (from the issue; times are medians over seeds): " + "; ".join(items) + ".")
     L.append("")
 
     # end to end

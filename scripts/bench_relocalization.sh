@@ -47,11 +47,14 @@ w("Each trial moves the query traverse (rover positions and every detection) by 
   "a false accept is an accepted answer off by more than 10 cm or 1°. True common landmarks: mutual nearest "
   "neighbours within 10 cm of the two traverses' maps in the world frame.")
 w("")
-def table(rep, title, cmd):
+def table(rep, title, cmd, rows=True):
     w(f"### {title}")
     w("")
-    w(f"`{cmd}`")
+    w(f"`{cmd}`" + ("" if rows else " (per pair: the command's output)"))
     w("")
+    if not rows:
+        totals(rep)
+        return
     w("| prior | query | landmarks (prior / query) | true common | success | false accepts | inliers (mean) | translation error mean / max (cm) | rotation error max (°) | time mean (ms) |")
     w("|---|---|---|---|---|---|---|---|---|---|")
     for p in rep["pairs"]:
@@ -62,15 +65,17 @@ def table(rep, title, cmd):
         w(f"| {p['prior']} | {p['query']} | {p['prior_landmarks']} / {p['query_landmarks']} | {p['true_common']} | "
           f"{p['successes']}/{len(p['trials'])} | {p['false_accepts']} | {inl:.1f} | "
           f"{cm(sum(te)/len(te)) if te else '–'} / {cm(max(te)) if te else '–'} | {max(re_) if re_ else float('nan'):.3f} | {tm:.1f} |")
-    t = rep["totals"]
     w("")
+    totals(rep)
+def totals(rep):
+    t = rep["totals"]
     w(f"Totals: success {t['successes']}/{t['trials']}, false accepts **{t['false_accepts']}**; translation error "
       f"mean {cm(t['translation_error_m']['mean'])} cm, median {cm(t['translation_error_m']['median'])} cm, "
       f"max {cm(t['translation_error_m']['max'])} cm; rotation error mean {t['rotation_error_deg']['mean']:.3f}°, "
       f"max {t['rotation_error_deg']['max']:.3f}°; time median {t['time_ms']['median']:.1f} ms, max {t['time_ms']['max']:.0f} ms.")
     w("")
 table(p4, "Paper pairs, 4-DOF, 20 random transforms each", "segloc eval lunarloc --pairs paper --trials 20 --seed 1 --dof 4")
-table(p6, "Paper pairs, 6-DOF, 20 random transforms each", "segloc eval lunarloc --pairs paper --trials 20 --seed 1 --dof 6")
+table(p6, "Paper pairs, 6-DOF, 20 random transforms each", "segloc eval lunarloc --pairs paper --trials 20 --seed 1 --dof 6", rows=False)
 t = a4["totals"]
 w("### All 136 pairs, 4-DOF, 10 random transforms each")
 w("")
@@ -118,8 +123,6 @@ w("")
 w("`segloc eval landmarks` — fraction of points on a ground-truth rock cell, and on or beside one (8-neighbourhood), "
   "for the raw detections and for the fused landmarks (default fusion: cluster radius 0.2 m, ≥ 2 detections, range 1.5–8 m, median centroid).")
 w("")
-w("| | points | on rock | on/beside |")
-w("|---|---|---|---|")
 tot = [0,0,0,0,0,0]
 per = []
 for r in L["traverses"]:
@@ -127,9 +130,8 @@ for r in L["traverses"]:
     per.append((100*l['on_rock'], r['traverse']))
     tot[0]+=d['points']; tot[1]+=d['points']*d['on_rock']; tot[2]+=d['points']*d['near_rock']
     tot[3]+=l['points']; tot[4]+=l['points']*l['on_rock']; tot[5]+=l['points']*l['near_rock']
-w(f"| detections, 17 traverses | {tot[0]} | {100*tot[1]/tot[0]:.1f}% | {100*tot[2]/tot[0]:.1f}% |")
-w(f"| landmarks | {tot[3]} | {100*tot[4]/tot[3]:.1f}% | {100*tot[5]/tot[3]:.1f}% |")
-w("")
+w(f"Detections (17 traverses, {tot[0]} points): {100*tot[1]/tot[0]:.1f}% on rock, {100*tot[2]/tot[0]:.1f}% on or beside; "
+  f"landmarks ({tot[3]}): {100*tot[4]/tot[3]:.1f}% and {100*tot[5]/tot[3]:.1f}%.")
 w(f"Per traverse, landmarks on rock from {min(per)[0]:.1f}% (traverse {min(per)[1]}) to {max(per)[0]:.1f}% "
   f"(traverse {max(per)[1]}); the per-traverse table: `segloc eval landmarks`. Raw detections are dominated by the "
   "large, well-seen boulders, so per detection they sit on rock more often than per landmark. Why "
