@@ -49,8 +49,9 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Find `prior_from_query` between two maps (map files or detection / traverse CSVs).
     Relocalize(relocalize::RelocalizeArgs),
-    /// A recorded drive (frames file) through the online localizer, against a prior map or
-    /// as a mapping session: the trajectory as TUM, the session's map with `--map-out`.
+    /// A recorded drive (a frames file, or stereo images: `--lac`, `--images`) through the
+    /// online localizer, against a prior map or as a mapping session: the trajectory as TUM,
+    /// the session's map with `--map-out`.
     Localize(localize::LocalizeArgs),
     /// Build and inspect object maps.
     #[command(subcommand)]
