@@ -95,11 +95,16 @@ pub fn diagnose_frame(
         }
     }
     let instance: Vec<u32> = (0..w * h).map(|p| frame.instance[sample(p)]).collect();
+    // each rock's pixels (instance id = rock id + 1), in one pass over the image
+    let mut pixels_of: std::collections::HashMap<u32, Vec<usize>> = Default::default();
+    for (p, &id) in instance.iter().enumerate().filter(|(_, &id)| id != 0) {
+        pixels_of.entry(id).or_default().push(p);
+    }
     let mut out = Vec::new();
     for rock in score.rocks.iter().filter(|r| r.counted) {
-        let mine: Vec<usize> = (0..w * h)
-            .filter(|&p| instance[p] == rock.id as u32 + 1)
-            .collect();
+        let mine: &[usize] = pixels_of
+            .get(&(rock.id as u32 + 1))
+            .map_or(&[], Vec::as_slice);
         let n = mine.len().max(1) as f64;
         let truth = &moon.rocks()[rock.id];
         let protrusion_m =
@@ -107,7 +112,7 @@ pub fn diagnose_frame(
         let threshold = geometric.threshold_at(geometric.seed_height_m, rock.range_m);
         let mut errors = Vec::new();
         let (mut valid, mut seeds, mut peak) = (0usize, 0usize, f64::NAN);
-        for &p in &mine {
+        for &p in mine {
             if let Some(z) = disparity.depth_m(p % w, p / w) {
                 valid += 1;
                 errors.push((z - frame.depth_m[sample(p)] as f64).abs());
@@ -126,7 +131,7 @@ pub fn diagnose_frame(
         let gray = |p: usize| frame.left.data[sample(p)];
         let frac =
             |keep: &dyn Fn(u8) -> bool| mine.iter().filter(|&&p| keep(gray(p))).count() as f64 / n;
-        let regions_cover = region_overlaps(&mine, &region_of);
+        let regions_cover = region_overlaps(mine, &region_of);
         let main = regions_cover.first().copied();
         let (region_cover, region_purity, region_other_rocks) =
             main.map_or((0.0, 0.0, 0.0), |(k, c)| {
