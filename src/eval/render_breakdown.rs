@@ -7,7 +7,7 @@
 //! boulder stage's verdict on their masks, and the match. A missed rock gets the first cause
 //! along the pipeline ([`miss_cause`]). `segloc eval render --breakdown FILE` writes them.
 
-use crate::perception::geometric::segment_geometric_regions;
+use crate::perception::geometric::{segment_geometric_regions, Region};
 use crate::perception::ground::height_above_ground;
 use crate::perception::{FrameResult, GeometricConfig, RegionDrop, SegmentInput};
 use crate::sim::moon::Moon;
@@ -88,18 +88,9 @@ pub fn diagnose_frame(
         camera: &disparity.camera,
     };
     let regions = segment_geometric_regions(&input, geometric);
-    let mut region_of = vec![u32::MAX; w * h];
-    for (k, r) in regions.iter().enumerate() {
-        for &p in &r.pixels {
-            region_of[p] = k as u32;
-        }
-    }
+    let region_of = region_index(&regions, w * h);
     let instance: Vec<u32> = (0..w * h).map(|p| frame.instance[sample(p)]).collect();
-    // each rock's pixels (instance id = rock id + 1), in one pass over the image
-    let mut pixels_of: std::collections::HashMap<u32, Vec<usize>> = Default::default();
-    for (p, &id) in instance.iter().enumerate().filter(|(_, &id)| id != 0) {
-        pixels_of.entry(id).or_default().push(p);
-    }
+    let pixels_of = pixels_by_instance(&instance);
     let mut out = Vec::new();
     for rock in score.rocks.iter().filter(|r| r.counted) {
         let mine: &[usize] = pixels_of
@@ -182,6 +173,26 @@ pub fn diagnose_frame(
         out.push(d);
     }
     out
+}
+
+/// For each of `pixels` pixels, the index of the region holding it (`u32::MAX`: none).
+fn region_index(regions: &[Region], pixels: usize) -> Vec<u32> {
+    let mut region_of = vec![u32::MAX; pixels];
+    for (k, r) in regions.iter().enumerate() {
+        for &p in &r.pixels {
+            region_of[p] = k as u32;
+        }
+    }
+    region_of
+}
+
+/// Each instance's pixels (instance id = rock id + 1; 0 is no rock), in one pass.
+fn pixels_by_instance(instance: &[u32]) -> std::collections::HashMap<u32, Vec<usize>> {
+    let mut pixels_of: std::collections::HashMap<u32, Vec<usize>> = Default::default();
+    for (p, &id) in instance.iter().enumerate().filter(|(_, &id)| id != 0) {
+        pixels_of.entry(id).or_default().push(p);
+    }
+    pixels_of
 }
 
 /// The regions covering `pixels`, with how many of them each covers, most first.
