@@ -3,7 +3,8 @@
 //!
 //! `DIR/NNNNNN_0.png` (left), `NNNNNN_1.png` (right), `NNNNNN_ids.png` (rock instances,
 //! 16-bit), `NNNNNN_depth.png` (left depth, 16-bit mm), `calibration.json`, `truth.tum`
-//! (left camera poses), `rover_truth.tum`, `imu.csv` (gravity in the rover frame) and
+//! (left camera poses), `rover_truth.tum`, `imu.csv` (gravity and the gyro's mean rate since
+//! the previous frame, rover frame, [`segloc::sim::gyro`]) and
 //! `rocks.json`; with `--lac`, the same frames as a `.lac` recording.
 //!
 //! Everything is written into a temporary directory beside `DIR`, renamed onto `DIR` at the
@@ -15,10 +16,11 @@ use segloc::mission::mapping_session::map_session;
 use segloc::mission::{drive_sessions, MissionConfig, Silent};
 use segloc::perception::lac::{ImageKind, Imu, LacFrame, LacWriter, FRONT_LEFT, FRONT_RIGHT};
 use segloc::perception::write_gray_png;
+use segloc::sim::gyro::{gyro_rates, GyroConfig};
 use segloc::sim::ipex::TICK_S;
 use segloc::sim::moon::Moon;
 use segloc::sim::render::{rover_from_front_left_optical, RenderConfig, Renderer, StereoFrame};
-use segloc::sim::session::SessionLog;
+use segloc::sim::session::{SessionLog, TickRecord};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -176,6 +178,13 @@ fn drive(args: &RenderArgs) -> Result<(Moon, SessionLog)> {
     }
 }
 
+/// The gyro's own seed for a rendered session.
+fn gyro_seed(args: &RenderArgs) -> u64 {
+    args.seed
+        .wrapping_mul(4)
+        .wrapping_add(u64::from(args.session))
+}
+
 /// Render every `--every`-th tick of `log` into `dir`.
 fn write_frames(
     args: &RenderArgs,
@@ -186,7 +195,14 @@ fn write_frames(
 ) -> Result<()> {
     let mut truth = Vec::new();
     let mut rover_truth = Vec::new();
-    let mut imu = String::from("frame,time_s,gravity_x,gravity_y,gravity_z\n");
+    let mut imu = String::from("frame,time_s,gravity_x,gravity_y,gravity_z,gyro_x,gyro_y,gyro_z\n");
+    let rendered: Vec<(usize, &TickRecord)> =
+        log.ticks.iter().enumerate().step_by(args.every).collect();
+    let poses: Vec<_> = rendered
+        .iter()
+        .map(|(_, r)| (r.time_s, r.world_from_rover))
+        .collect();
+    let gyro = gyro_rates(&poses, &GyroConfig::default(), gyro_seed(args));
     let mut frames_json = Vec::new();
     let mut lac = args.lac.as_ref().map(|_| {
         let mut meta = toml::Table::new();
@@ -195,7 +211,7 @@ fn write_frames(
         LacWriter::new(meta, toml::Table::new())
     });
     let mut render_ms = Vec::new();
-    for (tick, record) in log.ticks.iter().enumerate().step_by(args.every) {
+    for ((tick, record), w) in rendered.into_iter().zip(gyro) {
         let frame = renderer.render_stereo(&record.world_from_rover, tick as u64);
         render_ms.push(frame.render_ms);
         write_frame_images(dir, tick, &frame)?;
@@ -203,8 +219,8 @@ fn write_frames(
         rover_truth.push((record.time_s, record.world_from_rover));
         let g = record.gravity_rover;
         imu.push_str(&format!(
-            "{tick},{:.3},{},{},{}\n",
-            record.time_s, g.x, g.y, g.z
+            "{tick},{:.3},{},{},{},{},{},{}\n",
+            record.time_s, g.x, g.y, g.z, w.x, w.y, w.z
         ));
         frames_json.push(json!({"frame": tick, "time_s": record.time_s, "visible": frame.rocks}));
         if let Some(writer) = lac.as_mut() {
@@ -214,7 +230,7 @@ fn write_frames(
                 pose: Some(record.world_from_rover),
                 imu: Some(Imu {
                     accel: [-g.x, -g.y, -g.z],
-                    gyro: [0.0; 3],
+                    gyro: [w.x, w.y, w.z],
                 }),
             });
             writer.add_image(FRONT_LEFT, ImageKind::Grayscale, tick as u64, frame.left);

@@ -6,7 +6,8 @@
 //! - [`rover`]: the IPEX rover's differential drive following the terrain ([`ipex`] holds
 //!   its geometry);
 //! - [`sensors`]: stereo boulder detections and ground points ([`stereo_noise`]),
-//!   [`visual_odometry`] and the IMU's gravity direction;
+//!   [`visual_odometry`] and the IMU's gravity direction; [`gyro`], the IMU's angular rate
+//!   for rendered drives;
 //! - [`session`]: one driving session with the planner ([`crate::planning`]), logged in a
 //!   [`session_log::SessionLog`].
 //!
@@ -17,6 +18,7 @@
 
 pub mod boulder_field;
 pub mod crater;
+pub mod gyro;
 pub mod moon;
 pub mod render;
 pub mod rendered_boulders;
