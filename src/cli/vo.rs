@@ -54,7 +54,8 @@ pub struct VoArgs {
     /// VO configuration (TOML, fields of `VoConfig`).
     #[arg(long, value_name = "FILE")]
     pub vo_config: Option<PathBuf>,
-    /// Also write one CSV row a frame: `t,tracked,inliers,features,lost,rotation_sigma_deg,time_ms`.
+    /// Also write one CSV row a frame:
+    /// `t,tracked,inliers,features,lost,gyro_rotation,rotation_sigma_deg,time_ms`.
     #[arg(long, value_name = "CSV")]
     pub per_frame: Option<PathBuf>,
     /// Print one JSON object with the results.
@@ -64,15 +65,17 @@ pub struct VoArgs {
 
 /// One CSV row a frame, with a header: what the odometry did on each frame.
 fn per_frame_csv(results: &[FrameResult]) -> String {
-    let mut text = String::from("t,tracked,inliers,features,lost,rotation_sigma_deg,time_ms\n");
+    let mut text =
+        String::from("t,tracked,inliers,features,lost,gyro_rotation,rotation_sigma_deg,time_ms\n");
     for r in results {
         text.push_str(&format!(
-            "{:.3},{},{},{},{},{:.4},{:.2}\n",
+            "{:.3},{},{},{},{},{},{:.4},{:.2}\n",
             r.time_s,
             r.tracked,
             r.inliers,
             r.features,
             r.lost as u8,
+            r.gyro_rotation as u8,
             r.rotation_sigma_deg,
             r.time_ms
         ));
@@ -109,6 +112,8 @@ struct VoOutput<'a> {
     tracked_features: f64,
     inliers: f64,
     lost_frames: usize,
+    /// Frames whose rotation is the gyro's (the image motion failed or disagreed with it).
+    gyro_rotation_frames: usize,
     keyframes: usize,
     per_frame_ms: Timing,
     config: &'a VoConfig,
@@ -154,6 +159,7 @@ fn summary<'a>(results: &[FrameResult], config: &'a VoConfig) -> VoOutput<'a> {
         tracked_features: percentile(&tracked, 0.5),
         inliers: percentile(&inliers, 0.5),
         lost_frames: results.iter().filter(|r| r.lost).count(),
+        gyro_rotation_frames: results.iter().filter(|r| r.gyro_rotation).count(),
         keyframes: results.len(),
         per_frame_ms: Timing {
             median: percentile(&ms, 0.5),

@@ -2,7 +2,8 @@
 //!
 //! Each stereo pair of a sequence (a `.lac` recording, a `segloc sim render` folder, a
 //! KITTI-layout folder) goes through three named stages:
-//! 1. `odometry`: the stereo visual odometry ([`crate::vo`]) gives the left camera's motion,
+//! 1. `odometry`: the stereo visual odometry ([`crate::vo`], helped by the gyro when the
+//!    recording has one) gives the left camera's motion,
 //!    turned into `odom_from_rover` through the camera's mount (the odometry frame is the
 //!    rover frame at the first pair);
 //! 2. `detect`: every `detect_period_s` the perception front end ([`crate::perception`])
@@ -24,7 +25,7 @@
 //! for k in 0..sequence.frames.len() {
 //!     let [(left, _), (right, _)] = sequence.load(k)?;
 //!     let frame = &sequence.frames[k];
-//!     let out = stream.push_pair(&left, &right, frame.time_s, frame.gravity_rover)?;
+//!     let out = stream.push_pair(&left, &right, frame.time_s, frame.imu())?;
 //!     println!("{} boulders at t = {}", out.frame.detections.len(), out.frame.t);
 //! }
 //! # Ok(())
@@ -33,8 +34,10 @@
 
 use crate::graph::StereoCalibration;
 use crate::perception::{FrontEnd, FrontEndConfig, GrayImage, PerceptionError, Segmenter};
-use crate::vo::{FrameResult as VoFrame, StereoOdometry, StereoSequence, VoConfig, VoError};
-use nalgebra::{Isometry3, Point3, Vector3};
+use crate::vo::{
+    FrameResult as VoFrame, ImuSample, StereoOdometry, StereoSequence, VoConfig, VoError,
+};
+use nalgebra::{Isometry3, Point3};
 use segloc_maps::frames::{FrameDetection, StreamFrame};
 use serde::{Deserialize, Serialize};
 
@@ -127,7 +130,8 @@ impl ImageStream {
         segmenter: Box<dyn Segmenter>,
     ) -> Result<Self, ImageStreamError> {
         config.validate()?;
-        let odometry = StereoOdometry::new(calibration, config.vo.clone())?;
+        let mut odometry = StereoOdometry::new(calibration, config.vo.clone())?;
+        odometry.set_gyro_mount(config.front_end.mount.rover_from_camera().rotation);
         let front_end = FrontEnd::new(config.front_end.clone(), segmenter)?;
         Ok(Self {
             rover_from_camera: config.front_end.mount.rover_from_camera(),
@@ -138,15 +142,18 @@ impl ImageStream {
         })
     }
 
-    /// One rectified pair at `time_s`, with the IMU's gravity in the rover frame when known.
+    /// One rectified pair at `time_s`, with what the IMU measured when known.
     pub fn push_pair(
         &mut self,
         left: &GrayImage,
         right: &GrayImage,
         time_s: f64,
-        gravity_rover: Option<Vector3<f64>>,
+        imu: ImuSample,
     ) -> Result<StreamOutput, ImageStreamError> {
-        let vo = self.odometry.process(left, right, time_s);
+        let vo = self
+            .odometry
+            .process_with_gyro(left, right, time_s, imu.gyro_rover_rad_s);
+        let gravity_rover = imu.gravity_rover;
         let odom_from_rover = self.rover_from_camera * vo.pose * self.rover_from_camera.inverse();
         let mut frame = StreamFrame::new(time_s, odom_from_rover);
         frame.gravity_rover = gravity_rover;
@@ -211,7 +218,7 @@ pub fn stream_sequence(
     let mut outputs = Vec::with_capacity(sequence.frames.len());
     for (k, frame) in sequence.frames.iter().enumerate() {
         let [(left, _), (right, _)] = sequence.load(k)?;
-        outputs.push(stream.push_pair(&left, &right, frame.time_s, frame.gravity_rover)?);
+        outputs.push(stream.push_pair(&left, &right, frame.time_s, frame.imu())?);
     }
     Ok(outputs)
 }
@@ -220,6 +227,7 @@ pub fn stream_sequence(
 mod tests {
     use super::*;
     use crate::perception::GeometricSegmenter;
+    use nalgebra::Vector3;
 
     fn calibration() -> StereoCalibration {
         StereoCalibration {
@@ -242,10 +250,14 @@ mod tests {
         let mut stream = ImageStream::new(calibration(), config, segmenter).unwrap();
         let image = GrayImage::new(128, 72, vec![90; 128 * 72]).unwrap();
         let gravity = Some(Vector3::new(0.0, 0.0, -1.62));
+        let imu = ImuSample {
+            gravity_rover: gravity,
+            gyro_rover_rad_s: Some(Vector3::zeros()),
+        };
         let mut detected = Vec::new();
         for k in 0..7 {
             let out = stream
-                .push_pair(&image, &image, 0.1 * k as f64, gravity)
+                .push_pair(&image, &image, 0.1 * k as f64, imu)
                 .unwrap();
             assert_eq!(out.frame.gravity_rover, gravity);
             if k == 0 {

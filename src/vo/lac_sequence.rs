@@ -55,16 +55,40 @@ impl StereoSequence {
                     .and_then(|f| f.imu.as_ref())
                     .map(|imu| -Vector3::from(imu.accel))
                     .filter(|g| g.iter().all(|v| v.is_finite()) && g.norm() > 0.0),
+                gyro_rover_rad_s: recording
+                    .frame(frame)
+                    .and_then(|f| f.imu.as_ref())
+                    .map(|imu| Vector3::from(imu.gyro))
+                    .filter(|w| w.iter().all(|v| v.is_finite())),
             })
             .collect();
         check_times(&frames, path)?;
         let truth = rover_truth(&recording, &numbers);
         Ok(Self {
             calibration,
-            frames,
+            frames: without_a_silent_gyro(frames),
             truth,
+            rover_from_camera: Some(
+                crate::perception::CameraMount::ipex_front_left()
+                    .rover_from_camera()
+                    .rotation,
+            ),
         })
     }
+}
+
+/// A gyro that reads exactly zero on every frame is not there (recordings written before
+/// `sim render` had one, or without an IMU): its rates are dropped.
+fn without_a_silent_gyro(mut frames: Vec<SequenceFrame>) -> Vec<SequenceFrame> {
+    let silent = frames
+        .iter()
+        .all(|f| f.gyro_rover_rad_s.is_none_or(|w| w == Vector3::zeros()));
+    if silent {
+        for f in &mut frames {
+            f.gyro_rover_rad_s = None;
+        }
+    }
+    frames
 }
 
 /// `first_from_left_camera` per frame from the recorded `world_from_rover`, when every frame

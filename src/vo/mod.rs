@@ -23,13 +23,14 @@ pub mod rendered_sequence;
 pub mod segment_drift;
 pub mod sequence;
 pub mod stereo_match;
+pub mod translation_given_rotation;
 pub mod tum;
 pub mod window;
 
 pub use error::VoError;
 pub use odometry::{FrameResult, StereoOdometry, VoConfig};
 pub use segment_drift::{segment_drift, SegmentDrift};
-pub use sequence::{FrameImages, SequenceFrame, StereoSequence};
+pub use sequence::{FrameImages, ImuSample, SequenceFrame, StereoSequence};
 
 /// Runs the odometry over a sequence, checking that every image has the size of the first.
 /// Each frame's `time_ms` is the odometry's own: reading and decoding the images (PNG files,
@@ -39,6 +40,9 @@ pub fn run_sequence(
     config: &VoConfig,
 ) -> Result<Vec<FrameResult>, VoError> {
     let mut vo = StereoOdometry::new(sequence.calibration, config.clone())?;
+    if let Some(rover_from_camera) = sequence.rover_from_camera {
+        vo.set_gyro_mount(rover_from_camera);
+    }
     let mut results = Vec::with_capacity(sequence.frames.len());
     let mut size = None;
     for (k, frame) in sequence.frames.iter().enumerate() {
@@ -55,7 +59,7 @@ pub fn run_sequence(
                 });
             }
         }
-        results.push(vo.process(&left, &right, frame.time_s));
+        results.push(vo.process_with_gyro(&left, &right, frame.time_s, frame.gyro_rover_rad_s));
     }
     Ok(results)
 }

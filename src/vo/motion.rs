@@ -62,7 +62,7 @@ pub struct MotionEstimate {
 }
 
 /// Reprojection residual of one correspondence under `curr_from_prev` (2 or 3 entries).
-fn residual(
+pub(super) fn residual(
     camera: &StereoCalibration,
     t: &Isometry3<f64>,
     c: &Correspondence,
@@ -95,7 +95,7 @@ fn kabsch(a: &[Point3<f64>; 3], b: &[Point3<f64>; 3]) -> Option<Isometry3<f64>> 
     Some(Isometry3::from_parts(Translation3::from(t), rotation))
 }
 
-fn inliers_of(
+pub(super) fn inliers_of(
     camera: &StereoCalibration,
     t: &Isometry3<f64>,
     cs: &[Correspondence],

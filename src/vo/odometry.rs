@@ -11,14 +11,17 @@
 
 use super::corners::{cell_of, detect_corners, grid_size, CornerConfig};
 use super::klt::{track, KltConfig};
-use super::motion::{estimate_motion, rotation_sigma_rad, Correspondence, MotionConfig};
+use super::motion::{
+    estimate_motion, rotation_sigma_rad, Correspondence, MotionConfig, MotionEstimate,
+};
 use super::pyramid::{FloatImage, Pyramid};
 use super::stereo_match::{match_point, StereoMatchConfig};
+use super::translation_given_rotation::translation_given_rotation;
 use super::window::{SlidingWindow, WindowConfig};
 use super::VoError;
 use crate::graph::StereoCalibration;
 use crate::perception::GrayImage;
-use nalgebra::{Isometry3, Matrix6, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix6, Point3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -39,6 +42,31 @@ pub struct VoConfig {
     pub motion: MotionConfig,
     /// Sliding-window bundle adjustment.
     pub window: WindowConfig,
+    /// The gyro's part, when the frames carry its rates.
+    pub gyro: VoGyroConfig,
+}
+
+/// How the odometry uses a gyro.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct VoGyroConfig {
+    /// Use the gyro's rates (default true): the motion predicted for tracking takes the
+    /// gyro's rotation, and a frame whose image motion fails or disagrees with it keeps the
+    /// gyro's rotation and finds its translation alone.
+    pub enabled: bool,
+    /// Largest angle between a frame's rotation from the images (motion estimate or window
+    /// refinement) and the gyro's before the images' is refused, degrees (default 0.1;
+    /// see docs/design/vo-gyro.md).
+    pub max_disagreement_deg: f64,
+}
+
+impl Default for VoGyroConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            max_disagreement_deg: 0.1,
+        }
+    }
 }
 
 impl Default for VoConfig {
@@ -50,6 +78,7 @@ impl Default for VoConfig {
             stereo: StereoMatchConfig::default(),
             motion: MotionConfig::default(),
             window: WindowConfig::default(),
+            gyro: VoGyroConfig::default(),
         }
     }
 }
@@ -74,6 +103,9 @@ impl VoConfig {
         }
         if !(self.motion.inlier_px > 0.0 && self.motion.huber_px > 0.0) {
             return bad("motion.inlier_px and motion.huber_px must be positive");
+        }
+        if self.gyro.max_disagreement_deg.is_nan() || self.gyro.max_disagreement_deg <= 0.0 {
+            return bad("gyro.max_disagreement_deg must be positive");
         }
         Ok(())
     }
@@ -115,6 +147,9 @@ pub struct FrameResult {
     /// The motion's worst-known rotation direction, one standard deviation at 1 px of image
     /// noise, degrees (infinite when lost).
     pub rotation_sigma_deg: f64,
+    /// True when the frame's rotation is the gyro's (the image motion failed or disagreed
+    /// with it) and only its translation came from the images.
+    pub gyro_rotation: bool,
     /// Processing time of the frame, from decoded images to its pose, milliseconds.
     pub time_ms: f64,
 }
@@ -130,6 +165,20 @@ pub struct StereoOdometry {
     last_motion: Isometry3<f64>,
     window: SlidingWindow,
     frame_index: u64,
+    /// The camera's mounting rotation `rover_from_camera`, for gyro rates given in the rover
+    /// frame; `None` until [`StereoOdometry::set_gyro_mount`].
+    gyro_mount: Option<UnitQuaternion<f64>>,
+    previous_time_s: Option<f64>,
+    /// Whether the last frame's motion kept the gyro's rotation.
+    gyro_rotation_kept: bool,
+}
+
+/// The motion expected for a frame, before its images are seen.
+struct Prediction {
+    /// `curr_from_prev`: constant velocity, with the gyro's rotation when known.
+    curr_from_prev: Isometry3<f64>,
+    /// The gyro's rotation `curr_from_prev`, when the frame has a rate.
+    gyro_rotation: Option<UnitQuaternion<f64>>,
 }
 
 impl StereoOdometry {
@@ -150,16 +199,43 @@ impl StereoOdometry {
             last_motion: Isometry3::identity(),
             window,
             frame_index: 0,
+            gyro_mount: None,
+            previous_time_s: None,
+            gyro_rotation_kept: false,
         })
+    }
+
+    /// Tells the odometry how its left camera is mounted (`rover_from_camera`), so that
+    /// [`StereoOdometry::process_with_gyro`] can turn rover-frame gyro rates into camera
+    /// rotations.
+    pub fn set_gyro_mount(&mut self, rover_from_camera: UnitQuaternion<f64>) {
+        self.gyro_mount = Some(rover_from_camera);
     }
 
     /// Processes one pair (same size, checked by the caller) at `time_s`.
     pub fn process(&mut self, left: &GrayImage, right: &GrayImage, time_s: f64) -> FrameResult {
+        self.process_with_gyro(left, right, time_s, None)
+    }
+
+    /// Processes one pair with the gyro's mean angular rate since the previous pair (rover
+    /// frame, rad/s). The rate is used when the mount is set and `use_gyro` is on: the
+    /// motion predicted for tracking takes its rotation, and so does the motion of a frame
+    /// whose tracking is lost.
+    pub fn process_with_gyro(
+        &mut self,
+        left: &GrayImage,
+        right: &GrayImage,
+        time_s: f64,
+        gyro_rover_rad_s: Option<Vector3<f64>>,
+    ) -> FrameResult {
         let start = Instant::now();
+        let predicted = self.predicted_motion(time_s, gyro_rover_rad_s);
+        self.previous_time_s = Some(time_s);
+        self.gyro_rotation_kept = false;
         let pyramid = Pyramid::new(left, self.config.pyramid_levels);
         let right = FloatImage::from_gray(right);
         let (tracked, estimate) = match self.previous.take() {
-            Some(prev) => self.track_and_estimate(&prev, &pyramid, &right),
+            Some(prev) => self.track_and_estimate(&prev, &pyramid, &right, &predicted),
             None => (0, None),
         };
         let lost = self.frame_index > 0 && estimate.is_none();
@@ -169,7 +245,7 @@ impl StereoOdometry {
         };
         let curr_from_prev = match estimate {
             Some((m, _, _)) => m,
-            None => self.last_motion,
+            None => predicted.curr_from_prev,
         };
         if self.frame_index > 0 {
             self.first_from_camera *= curr_from_prev.inverse();
@@ -185,10 +261,15 @@ impl StereoOdometry {
                     .map(|uv| (f.id, uv, f.p_camera))
             })
             .collect();
-        if let Some(refined) =
-            self.window
-                .add_frame(self.frame_index, self.first_from_camera, &observations)
-        {
+        let gyro_check = predicted
+            .gyro_rotation
+            .map(|r| (r, self.config.gyro.max_disagreement_deg.to_radians()));
+        if let Some(refined) = self.window.add_frame(
+            self.frame_index,
+            self.first_from_camera,
+            &observations,
+            gyro_check,
+        ) {
             self.first_from_camera = refined;
         }
         self.previous = Some(pyramid);
@@ -206,8 +287,60 @@ impl StereoOdometry {
             } else {
                 rotation_sigma_rad(&information, 1.0).to_degrees()
             },
+            gyro_rotation: self.gyro_rotation_kept,
             time_ms: start.elapsed().as_secs_f64() * 1e3,
         }
+    }
+
+    /// The motion `curr_from_prev` expected for this frame: the last one (constant
+    /// velocity), its rotation replaced by the gyro's when there is one (also returned).
+    fn predicted_motion(&self, time_s: f64, gyro_rover_rad_s: Option<Vector3<f64>>) -> Prediction {
+        let gyro = gyro_rover_rad_s
+            .filter(|w| self.config.gyro.enabled && w.iter().all(|v| v.is_finite()));
+        match (gyro, self.gyro_mount, self.previous_time_s) {
+            (Some(w), Some(rover_from_camera), Some(t0)) if time_s > t0 => {
+                let rotation = camera_rotation_from_gyro(&w, time_s - t0, &rover_from_camera);
+                Prediction {
+                    curr_from_prev: Isometry3::from_parts(self.last_motion.translation, rotation),
+                    gyro_rotation: Some(rotation),
+                }
+            }
+            _ => Prediction {
+                curr_from_prev: self.last_motion,
+                gyro_rotation: None,
+            },
+        }
+    }
+
+    /// Stage 3: the motion from the correspondences, checked against the gyro when there is
+    /// one: an image motion that fails or turns otherwise than the gyro is replaced by the
+    /// gyro's rotation with the translation the correspondences give for it. Returns the
+    /// estimate and whether the gyro's rotation was kept.
+    fn estimate_checked(
+        &self,
+        correspondences: &[Correspondence],
+        prediction: &Prediction,
+    ) -> (Option<MotionEstimate>, bool) {
+        let image = estimate_motion(
+            &self.camera,
+            correspondences,
+            &prediction.curr_from_prev,
+            &self.config.motion,
+        );
+        let Some(gyro) = prediction.gyro_rotation else {
+            return (image, false);
+        };
+        let max_rad = self.config.gyro.max_disagreement_deg.to_radians();
+        if image
+            .as_ref()
+            .is_some_and(|m| m.curr_from_prev.rotation.angle_to(&gyro) <= max_rad)
+        {
+            return (image, false);
+        }
+        let fallback =
+            translation_given_rotation(&self.camera, correspondences, &gyro, &self.config.motion);
+        let kept = fallback.is_some();
+        (fallback, kept)
     }
 
     /// Stages 1–3: tracks the features, matches them in the right image and estimates the
@@ -217,13 +350,15 @@ impl StereoOdometry {
         prev: &Pyramid,
         curr: &Pyramid,
         right: &FloatImage,
+        prediction: &Prediction,
     ) -> (usize, Option<Motion>) {
+        let predicted_motion = &prediction.curr_from_prev;
         let points: Vec<(f32, f32)> = self.features.iter().map(|f| (f.x, f.y)).collect();
         let predicted: Vec<Option<(f32, f32)>> = self
             .features
             .iter()
             .map(|f| {
-                let p_curr = self.last_motion * f.p_camera;
+                let p_curr = predicted_motion * f.p_camera;
                 let uv = self.camera.project(&p_curr.coords)?;
                 Some((uv.x as f32, uv.z as f32))
             })
@@ -242,12 +377,8 @@ impl StereoOdometry {
             kept.push((*f, x, y, disparity));
         }
         let tracked = kept.len();
-        let estimate = estimate_motion(
-            &self.camera,
-            &correspondences,
-            &self.last_motion,
-            &self.config.motion,
-        );
+        let (estimate, gyro_kept) = self.estimate_checked(&correspondences, prediction);
+        self.gyro_rotation_kept = gyro_kept;
         self.features.clear();
         if let Some(m) = &estimate {
             for ((f, x, y, disparity), inlier) in kept.into_iter().zip(&m.inliers) {
@@ -298,9 +429,37 @@ impl StereoOdometry {
     }
 }
 
+/// The left camera's rotation `curr_from_prev` over `dt_s` seconds from a gyro's mean rate
+/// in the rover frame, for a camera mounted as `rover_from_camera`.
+pub fn camera_rotation_from_gyro(
+    gyro_rover_rad_s: &Vector3<f64>,
+    dt_s: f64,
+    rover_from_camera: &UnitQuaternion<f64>,
+) -> UnitQuaternion<f64> {
+    let prev_from_curr_rover = UnitQuaternion::from_scaled_axis(gyro_rover_rad_s * dt_s);
+    let prev_from_curr_camera =
+        rover_from_camera.inverse() * prev_from_curr_rover * rover_from_camera;
+    prev_from_curr_camera.inverse()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_yaw_rate_turns_a_forward_camera_about_its_down_axis() {
+        // optical frame: x right, y down, z forward; rover: x forward, y left, z up
+        let rover_from_camera = UnitQuaternion::from_matrix(&nalgebra::Matrix3::new(
+            0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0,
+        ));
+        let r = camera_rotation_from_gyro(&Vector3::new(0.0, 0.0, 0.5), 0.2, &rover_from_camera);
+        // turning left by 0.1 rad: a point straight ahead moves to the camera's right
+        let p = r * Point3::new(0.0, 0.0, 1.0);
+        assert!(
+            (p.x - 0.1f64.sin()).abs() < 1e-12 && p.y.abs() < 1e-12,
+            "{p}"
+        );
+    }
 
     #[test]
     fn a_partial_toml_keeps_the_other_defaults() {

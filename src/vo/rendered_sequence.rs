@@ -6,7 +6,7 @@
 use super::sequence::{check_times, first_from_camera, FrameImages, SequenceFrame, StereoSequence};
 use super::VoError;
 use crate::graph::StereoCalibration;
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -21,13 +21,24 @@ struct RenderedCalibration {
     baseline_m: f64,
     #[serde(default = "default_tick_s")]
     tick_s: f64,
+    #[serde(default)]
+    rover_from_left_camera: Option<RenderedMount>,
+}
+
+/// `rover_from_left_camera` of `calibration.json` (its rotation is what the odometry needs).
+#[derive(Deserialize)]
+struct RenderedMount {
+    quaternion_xyzw: [f64; 4],
 }
 
 fn default_tick_s() -> f64 {
     0.05
 }
 
-fn read_calibration(path: &Path) -> Result<(StereoCalibration, f64), VoError> {
+/// The calibration, the tick and the left camera's mounting rotation when the file has it.
+type Calibration = (StereoCalibration, f64, Option<UnitQuaternion<f64>>);
+
+fn read_calibration(path: &Path) -> Result<Calibration, VoError> {
     let text = std::fs::read_to_string(path).map_err(|source| VoError::Io {
         path: path.into(),
         source,
@@ -57,7 +68,23 @@ fn read_calibration(path: &Path) -> Result<(StereoCalibration, f64), VoError> {
             message: format!("tick_s must be positive, got {}", c.tick_s),
         });
     }
-    Ok((calibration, c.tick_s))
+    let mount = match c.rover_from_left_camera {
+        None => None,
+        Some(m) => {
+            let [x, y, z, w] = m.quaternion_xyzw;
+            let q = nalgebra::Quaternion::new(w, x, y, z);
+            if !(q.coords.iter().all(|v| v.is_finite()) && (q.norm() - 1.0).abs() < 1e-3) {
+                return Err(VoError::Parse {
+                    path: path.into(),
+                    line: 0,
+                    message: "rover_from_left_camera.quaternion_xyzw is not a unit quaternion"
+                        .into(),
+                });
+            }
+            Some(UnitQuaternion::from_quaternion(q))
+        }
+    };
+    Ok((calibration, c.tick_s, mount))
 }
 
 /// The ticks of the left images `NNNNNN_0.png` in `dir`, sorted, with their paths.
@@ -92,12 +119,15 @@ fn left_images(dir: &Path) -> Result<Vec<(u64, PathBuf)>, VoError> {
     Ok(ticks)
 }
 
-/// `imu.csv` (`frame,time_s,gravity_x,gravity_y,gravity_z`, rover frame) by tick; empty
-/// when the folder has none.
-fn read_imu(path: &Path) -> Result<BTreeMap<u64, Vector3<f64>>, VoError> {
-    let mut gravity = BTreeMap::new();
+/// One `imu.csv` row: gravity and, in the eight-column file, the gyro's rate.
+type ImuRow = (Vector3<f64>, Option<Vector3<f64>>);
+
+/// `imu.csv` (`frame,time_s,gravity_x,gravity_y,gravity_z[,gyro_x,gyro_y,gyro_z]`, rover
+/// frame) by tick; empty when the folder has none.
+fn read_imu(path: &Path) -> Result<BTreeMap<u64, ImuRow>, VoError> {
+    let mut rows = BTreeMap::new();
     if !path.is_file() {
-        return Ok(gravity);
+        return Ok(rows);
     }
     let text = std::fs::read_to_string(path).map_err(|source| VoError::Io {
         path: path.into(),
@@ -110,23 +140,28 @@ fn read_imu(path: &Path) -> Result<BTreeMap<u64, Vector3<f64>>, VoError> {
             message,
         };
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != 5 {
-            return Err(bad(format!("expected 5 fields, found {}", fields.len())));
+        if fields.len() != 5 && fields.len() != 8 {
+            return Err(bad(format!(
+                "expected 5 or 8 fields, found {}",
+                fields.len()
+            )));
         }
         let tick: u64 = fields[0]
             .parse()
             .map_err(|_| bad(format!("frame '{}' is not a whole number", fields[0])))?;
-        let mut g = [0.0; 3];
-        for (value, text) in g.iter_mut().zip(&fields[2..]) {
+        let mut values = [0.0; 6];
+        for (value, text) in values.iter_mut().zip(&fields[2..]) {
             *value = text
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| bad(format!("'{text}' is not a finite number")))?;
         }
-        gravity.insert(tick, Vector3::from(g));
+        let gravity = Vector3::new(values[0], values[1], values[2]);
+        let gyro = (fields.len() == 8).then(|| Vector3::new(values[3], values[4], values[5]));
+        rows.insert(tick, (gravity, gyro));
     }
-    Ok(gravity)
+    Ok(rows)
 }
 
 impl StereoSequence {
@@ -134,8 +169,9 @@ impl StereoSequence {
     /// `truth.tum`, it must have one pose per frame, and its times are the frames' times
     /// (otherwise tick × `tick_s`).
     pub fn read_rendered(dir: &Path) -> Result<Self, VoError> {
-        let (calibration, tick_s) = read_calibration(&dir.join("calibration.json"))?;
-        let gravity = read_imu(&dir.join("imu.csv"))?;
+        let (calibration, tick_s, rover_from_camera) =
+            read_calibration(&dir.join("calibration.json"))?;
+        let imu = read_imu(&dir.join("imu.csv"))?;
         let mut frames = Vec::new();
         for (tick, left) in left_images(dir)? {
             let right = dir.join(format!("{tick:06}_1.png"));
@@ -148,7 +184,8 @@ impl StereoSequence {
             frames.push(SequenceFrame {
                 time_s: tick as f64 * tick_s,
                 images: FrameImages::Files { left, right },
-                gravity_rover: gravity.get(&tick).copied(),
+                gravity_rover: imu.get(&tick).map(|(g, _)| *g),
+                gyro_rover_rad_s: imu.get(&tick).and_then(|(_, w)| *w),
             });
         }
         let truth_path = dir.join("truth.tum");
@@ -173,6 +210,7 @@ impl StereoSequence {
             calibration,
             frames,
             truth,
+            rover_from_camera,
         })
     }
 }
@@ -219,6 +257,25 @@ mod tests {
             Some(Vector3::new(0.0, 0.0, -1.62))
         );
         assert!(s.frames[1].gravity_rover.is_none());
+        assert!(s.frames[0].gyro_rover_rad_s.is_none() && s.rover_from_camera.is_none());
+        std::fs::write(
+            dir.path().join("imu.csv"),
+            "frame,time_s,gravity_x,gravity_y,gravity_z,gyro_x,gyro_y,gyro_z\n20,1.0,0,0,-1.62,0,0,0.5\n",
+        )
+        .unwrap();
+        let s = StereoSequence::read_rendered(dir.path()).unwrap();
+        assert_eq!(
+            s.frames[0].gyro_rover_rad_s,
+            Some(Vector3::new(0.0, 0.0, 0.5))
+        );
+        std::fs::write(dir.path().join("imu.csv"), "header\n20,1.0,0,0,1,2\n").unwrap();
+        let e = StereoSequence::read_rendered(dir.path())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("imu.csv:2") && e.contains("5 or 8 fields"),
+            "{e}"
+        );
         std::fs::write(dir.path().join("imu.csv"), "header\n20,1.0,0,x,1\n").unwrap();
         let e = StereoSequence::read_rendered(dir.path())
             .unwrap_err()

@@ -40,6 +40,28 @@ pub struct SequenceFrame {
     pub images: FrameImages,
     /// The IMU's gravity in the rover frame at this frame, when the recording has it.
     pub gravity_rover: Option<Vector3<f64>>,
+    /// The gyro's mean angular rate since the previous frame, rover frame, rad/s, when the
+    /// recording has it.
+    pub gyro_rover_rad_s: Option<Vector3<f64>>,
+}
+
+impl SequenceFrame {
+    /// What the IMU measured at this frame.
+    pub fn imu(&self) -> ImuSample {
+        ImuSample {
+            gravity_rover: self.gravity_rover,
+            gyro_rover_rad_s: self.gyro_rover_rad_s,
+        }
+    }
+}
+
+/// What the IMU measured at one frame (rover frame).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImuSample {
+    /// Gravity, m/s².
+    pub gravity_rover: Option<Vector3<f64>>,
+    /// The gyro's mean angular rate since the previous frame, rad/s.
+    pub gyro_rover_rad_s: Option<Vector3<f64>>,
 }
 
 /// A stereo sequence: calibration and frames in time order.
@@ -51,6 +73,9 @@ pub struct StereoSequence {
     pub frames: Vec<SequenceFrame>,
     /// Ground truth `first_from_camera` per frame, when the sequence has it.
     pub truth: Option<Vec<Isometry3<f64>>>,
+    /// The left camera's mounting rotation `rover_from_camera`, when known: the odometry
+    /// needs it to use the frames' gyro rates.
+    pub rover_from_camera: Option<UnitQuaternion<f64>>,
 }
 
 fn read(path: &Path) -> Result<String, VoError> {
@@ -215,6 +240,7 @@ impl StereoSequence {
                 time_s: 0.1 * n as f64,
                 images: FrameImages::Files { left, right },
                 gravity_rover: None,
+                gyro_rover_rad_s: None,
             });
         }
         let truth_path = dir.join("poses.txt");
@@ -235,6 +261,7 @@ impl StereoSequence {
             calibration,
             frames,
             truth,
+            rover_from_camera: None,
         })
     }
 

@@ -3,7 +3,7 @@
 //! ([`PoseGraph::optimize_bundle`]), Huber kernel, the oldest frame of the window held.
 
 use crate::graph::{PoseGraph, RobustKernel, SolverConfig, StereoCalibration};
-use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, VecDeque};
 
@@ -58,12 +58,16 @@ impl SlidingWindow {
     }
 
     /// Adds a frame and refines the window; returns the refined pose of the new frame, or
-    /// `None` when nothing was refined.
+    /// `None` when nothing was refined. With `gyro_check` (the gyro's rotation
+    /// `curr_from_prev` from the previous frame to this one and the largest disagreement,
+    /// radians), a refinement that turns the new frame otherwise is dropped whole: a window
+    /// of few points can twist a frame the gyro says did not turn.
     pub fn add_frame(
         &mut self,
         id: u64,
         first_from_camera: Isometry3<f64>,
         observations: &[(u64, Vector3<f64>, Point3<f64>)],
+        gyro_check: Option<(UnitQuaternion<f64>, f64)>,
     ) -> Option<Isometry3<f64>> {
         if self.config.frames < 2 {
             return None;
@@ -80,6 +84,15 @@ impl SlidingWindow {
             return None;
         }
         let refined = self.solve()?;
+        if let Some((curr_from_prev, max_rad)) = gyro_check {
+            // against the previous frame's pose as it was given out, not as refined now
+            let prev = self.frames[self.frames.len() - 2].first_from_camera;
+            let curr = refined.get(&id)?;
+            let refined_curr_from_prev = (curr.inverse() * prev).rotation;
+            if refined_curr_from_prev.angle_to(&curr_from_prev) > max_rad {
+                return None;
+            }
+        }
         for f in self.frames.iter_mut() {
             if let Some(p) = refined.get(&f.id) {
                 f.first_from_camera = *p;
