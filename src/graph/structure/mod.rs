@@ -142,7 +142,7 @@ impl<const B: usize> NormalEquations<B> {
         let (col_ptr, row_idx, diag_pos) = lower_pattern::<B>(&rows_of);
         let slots = factor_slots::<B>(factors, &block_of, &rows_of);
         let n = B * nb;
-        let (symbolic, workspace) = symbolic_analysis::<B>(n, &col_ptr, &row_idx)?;
+        let (symbolic, workspace) = symbolic_analysis::<B>(n, &rows_of)?;
         let l_values = vec![0.0; symbolic.len_val()];
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Ok(Self {
@@ -476,10 +476,9 @@ fn factor_slots<const B: usize>(
 /// pattern once, hand over the lower values every iteration.
 fn symbolic_analysis<const B: usize>(
     n: usize,
-    col_ptr: &[usize],
-    row_idx: &[usize],
+    rows_of: &[Vec<usize>],
 ) -> Result<(SymbolicCholesky<usize>, MemBuffer), GraphError> {
-    let (up_ptr, up_idx) = transpose_pattern(n, col_ptr, row_idx);
+    let (up_ptr, up_idx) = upper_pattern::<B>(rows_of);
     let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_idx);
     let params = CholeskySymbolicParams {
         // faer picks the simplicial (column by column) factorisation for long chains
@@ -531,22 +530,63 @@ fn factorize_llt<T: faer::traits::ComplexField>(
         .is_ok()
 }
 
-/// Pattern of the transpose of an `n × n` CSC pattern (rows sorted in every column).
-fn transpose_pattern(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> (Vec<usize>, Vec<usize>) {
-    let mut count = vec![0usize; n + 1];
-    for &r in row_idx {
-        count[r + 1] += 1;
-    }
-    for i in 0..n {
-        count[i + 1] += count[i];
-    }
-    let ptr = count.clone();
-    let mut idx = vec![0usize; row_idx.len()];
-    for c in 0..n {
-        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
-            idx[count[r]] = c;
-            count[r] += 1;
+/// The scalar upper CSC pattern `(col_ptr, row_idx)` of the same matrix as
+/// [`lower_pattern`] (its transpose), built from the block rows directly: in scalar column
+/// k of block column c, the rows of every earlier block linked to c (B each), then the
+/// diagonal block's rows 0..=k.
+fn upper_pattern<const B: usize>(rows_of: &[Vec<usize>]) -> (Vec<usize>, Vec<usize>) {
+    let nb = rows_of.len();
+    let mut above_of: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    for (r, rows) in rows_of.iter().enumerate() {
+        for &c in rows {
+            // r grows, so every list stays sorted.
+            above_of[c].push(r);
         }
     }
-    (ptr, idx)
+    let nnz: usize = above_of
+        .iter()
+        .map(|m| B * B * m.len() + B * (B + 1) / 2)
+        .sum();
+    let mut col_ptr = Vec::with_capacity(B * nb + 1);
+    let mut row_idx = Vec::with_capacity(nnz);
+    col_ptr.push(0);
+    for (c, above) in above_of.iter().enumerate() {
+        for k in 0..B {
+            for &r in above {
+                row_idx.extend(B * r..B * r + B);
+            }
+            row_idx.extend(B * c..=B * c + k);
+            col_ptr.push(row_idx.len());
+        }
+    }
+    (col_ptr, row_idx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn upper_pattern_is_the_transpose_of_the_lower_one() {
+        // Block columns in elimination order; strictly-lower block rows of each.
+        let rows_of = vec![vec![2, 3], vec![2], vec![3], vec![]];
+        let (l_ptr, l_idx, _) = lower_pattern::<3>(&rows_of);
+        let (u_ptr, u_idx) = upper_pattern::<3>(&rows_of);
+        let n = 12;
+        let mut entries_l = Vec::new();
+        for c in 0..n {
+            for &r in &l_idx[l_ptr[c]..l_ptr[c + 1]] {
+                entries_l.push((r, c));
+            }
+        }
+        let mut entries_u = Vec::new();
+        for c in 0..n {
+            let rows = &u_idx[u_ptr[c]..u_ptr[c + 1]];
+            assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows sorted");
+            entries_u.extend(rows.iter().map(|&r| (c, r)));
+        }
+        entries_l.sort_unstable();
+        entries_u.sort_unstable();
+        assert_eq!(entries_l, entries_u);
+    }
 }
