@@ -20,6 +20,7 @@ fn three_traverses_placed_against_the_grid_and_mirrors_refused() {
         negatives: true,
         seed: 5,
         extra_rocks: 0,
+        grid_rocks: Default::default(),
     };
     let report = evaluate_grid(&data, &options, &RelocalizeConfig::default(), |_, _| {}).unwrap();
     assert_eq!(report.prior_landmarks, 578);
@@ -38,11 +39,11 @@ fn coarser_grids_load_and_bad_cell_sizes_are_refused() {
         return;
     };
     for (cell, factor) in [(0.3, 2.0f64), (0.45, 3.0)] {
-        let map = segloc::eval::grid::grid_prior(&data, cell, 0, 1).unwrap();
+        let map = segloc::eval::grid::grid_prior(&data, cell, &Default::default(), 0, 1).unwrap();
         let cov = map.landmarks[0].covariance;
         assert!((cov[(0, 0)] - (0.15 * factor).powi(2) / 12.0).abs() < 1e-12);
     }
-    assert!(segloc::eval::grid::grid_prior(&data, 0.2, 0, 1).is_err());
-    let big = segloc::eval::grid::grid_prior(&data, 0.15, 1422, 1).unwrap();
+    assert!(segloc::eval::grid::grid_prior(&data, 0.2, &Default::default(), 0, 1).is_err());
+    let big = segloc::eval::grid::grid_prior(&data, 0.15, &Default::default(), 1422, 1).unwrap();
     assert_eq!(big.len(), 2000);
 }

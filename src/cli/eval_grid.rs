@@ -4,6 +4,7 @@ use super::print_json;
 use anyhow::{bail, Result};
 use segloc::eval::grid::{evaluate_grid, GridEvalOptions, GridReport, KindSummary};
 use segloc::eval::lunarloc::TRAVERSES;
+use segloc::landmarks::GridRocksConfig;
 use segloc::relocalize::RelocalizeConfig;
 use std::path::PathBuf;
 
@@ -39,6 +40,10 @@ pub struct GridArgs {
     /// Add this many synthetic single-cell rocks to the prior (timing a larger site).
     #[arg(long, default_value_t = 0)]
     pub extra_rocks: usize,
+    /// Cells at least this large (m) are each one rock landmark (default: the
+    /// `grid_rocks.split_from_cell_m` default, 0.3), instead of one per cluster of touching cells.
+    #[arg(long)]
+    pub split_from_cell: Option<f64>,
     /// Print one JSON object (every query included).
     #[arg(long)]
     pub json: bool,
@@ -69,7 +74,14 @@ pub fn run(args: &GridArgs, config: &RelocalizeConfig) -> Result<i32> {
         negatives: args.negatives,
         seed: args.seed,
         extra_rocks: args.extra_rocks,
+        grid_rocks: GridRocksConfig {
+            split_from_cell_m: args
+                .split_from_cell
+                .unwrap_or(GridRocksConfig::default().split_from_cell_m),
+            ..GridRocksConfig::default()
+        },
     };
+    options.grid_rocks.validate()?;
     let report = evaluate_grid(&args.data, &options, config, |_, _| {})?;
     if args.json {
         print_json(&report)?;

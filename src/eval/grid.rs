@@ -49,6 +49,8 @@ pub struct GridEvalOptions {
     /// Synthetic rocks added to the prior (a larger site's density, for timing): single-cell
     /// rocks at random positions of the grid, at least two cells from any other rock.
     pub extra_rocks: usize,
+    /// Grid cells → rock landmarks.
+    pub grid_rocks: GridRocksConfig,
 }
 
 /// What kind of query a trial ran.
@@ -164,10 +166,11 @@ pub struct GridReport {
 }
 
 /// The prior map of the grid evaluation at `cell_size_m` (a multiple of the ground truth's
-/// 0.15 m), from the grid under `data`.
+/// 0.15 m), from the grid under `data`, its rocks made by `rocks`.
 pub fn grid_prior(
     data: &Path,
     cell_size_m: f64,
+    rocks: &GridRocksConfig,
     extra_rocks: usize,
     seed: u64,
 ) -> Result<segloc_maps::ObjectMap, MapError> {
@@ -184,8 +187,7 @@ pub fn grid_prior(
         });
     }
     let grid = coarsened(&truth, factor as usize);
-    let mut map =
-        map_from_grid(&grid, &GridRocksConfig::default(), "grid").map_err(|e| e.in_file(&path))?;
+    let mut map = map_from_grid(&grid, rocks, "grid").map_err(|e| e.in_file(&path))?;
     add_synthetic_rocks(
         &mut map,
         extra_rocks,
@@ -245,7 +247,13 @@ pub fn evaluate_grid(
     config: &RelocalizeConfig,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<GridReport, MapError> {
-    let prior = grid_prior(data, options.cell_size_m, options.extra_rocks, options.seed)?;
+    let prior = grid_prior(
+        data,
+        options.cell_size_m,
+        &options.grid_rocks,
+        options.extra_rocks,
+        options.seed,
+    )?;
     let prior_landmarks = prior.len();
     let mut config = config.clone();
     config.dof = Some(Dof::Auto);

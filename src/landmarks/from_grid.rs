@@ -9,6 +9,10 @@
 //! [`GridRocksConfig::height_sigma_m`] (plus the spread of the cells' heights). The size is
 //! the cluster's largest horizontal extent (cells × cell size). No detection went into it,
 //! so its `observations` is 0: the relocalizer treats such a map as a survey prior.
+//!
+//! Coarse cells (at least [`GridRocksConfig::split_from_cell_m`]) are each their own rock:
+//! a rock rarely spans two of them, so touching rock cells are mostly neighbouring rocks
+//! OR-ed together, whose common centre is no rock's (docs/design/grid-coarse-cells.md).
 
 use nalgebra::{Matrix3, Point3};
 use segloc_maps::{LacGrid, Landmark, MapError, ObjectMap, RockRaster};
@@ -23,6 +27,9 @@ pub struct GridRocksConfig {
     /// Standard deviation (m) of a detected boulder centroid's height about its cells'
     /// mean terrain height (measured on four LunarLoc traverses: median +2 cm, IQR 1.4 cm).
     pub height_sigma_m: f64,
+    /// Grids whose cells are at least this large (m) give one landmark per rock cell
+    /// instead of one per 8-connected cluster (see the module docs).
+    pub split_from_cell_m: f64,
 }
 
 impl Default for GridRocksConfig {
@@ -30,6 +37,7 @@ impl Default for GridRocksConfig {
         Self {
             min_cells: 1,
             height_sigma_m: 0.03,
+            split_from_cell_m: 0.3,
         }
     }
 }
@@ -44,6 +52,12 @@ impl GridRocksConfig {
             return Err(invalid(format!(
                 "grid_rocks.height_sigma_m must be positive, got {}",
                 self.height_sigma_m
+            )));
+        }
+        if !(self.split_from_cell_m.is_finite() && self.split_from_cell_m > 0.0) {
+            return Err(invalid(format!(
+                "grid_rocks.split_from_cell_m must be positive, got {}",
+                self.split_from_cell_m
             )));
         }
         Ok(())
@@ -156,13 +170,21 @@ pub fn map_from_rock_cells<G: RockCells>(
         return Err(invalid("the grid has no rock cells".into()));
     }
     let rock_cells: usize = clusters.iter().map(Vec::len).sum();
+    let split = grid.cell_size_m() >= config.split_from_cell_m - 1e-9;
     let mut map = ObjectMap::new("world", session, true);
     for cells in clusters {
         if cells.len() < config.min_cells {
             continue;
         }
-        let landmark = rock_landmark(grid, &cells, config, map.landmarks.len() as u32)?;
-        map.landmarks.push(landmark);
+        let rocks = if split {
+            cells.iter().map(|&c| vec![c]).collect()
+        } else {
+            vec![cells]
+        };
+        for rock in rocks {
+            let landmark = rock_landmark(grid, &rock, config, map.landmarks.len() as u32)?;
+            map.landmarks.push(landmark);
+        }
     }
     if map.landmarks.is_empty() {
         return Err(invalid(format!(
@@ -324,6 +346,39 @@ mod tests {
         // height: 3 cm plus the cells' spread (0.1 m about the mean 1.1)
         assert!((cov[(2, 2)] - (0.03f64.powi(2) + 0.01)).abs() < 1e-12);
         assert!((map.landmarks[0].position.z - 1.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn coarse_cells_are_each_a_rock() {
+        // an L of three touching cells: one rock at 0.15 m, three at 0.45 m
+        let cells = [(1, 1), (1, 2), (2, 2)];
+        let fine = grid_with_rocks(4, &cells);
+        let fine_map = map_from_grid(&fine, &GridRocksConfig::default(), "s").unwrap();
+        assert_eq!(fine_map.len(), 1);
+        let mut coarse = grid_with_rocks(4, &cells);
+        coarse.cell_size_m = 0.45;
+        let map = map_from_grid(&coarse, &GridRocksConfig::default(), "s").unwrap();
+        assert_eq!(map.len(), 3);
+        // one landmark at each cell's centre (in the cluster's discovery order)
+        for &(a, b) in &cells {
+            let (x, y) = coarse.cell_center(a, b);
+            let at = |l: &&Landmark| (l.position.x - x).abs() + (l.position.y - y).abs() < 1e-9;
+            assert_eq!(
+                map.landmarks.iter().filter(at).count(),
+                1,
+                "cell ({a}, {b})"
+            );
+        }
+        for landmark in &map.landmarks {
+            assert!((landmark.covariance[(0, 0)] - 0.45f64.powi(2) / 12.0).abs() < 1e-15);
+            assert_eq!(landmark.size_m, Some(0.45));
+        }
+        let bad = GridRocksConfig {
+            split_from_cell_m: 0.0,
+            ..GridRocksConfig::default()
+        };
+        let err = bad.validate().unwrap_err().to_string();
+        assert!(err.contains("grid_rocks.split_from_cell_m"), "{err}");
     }
 
     #[test]

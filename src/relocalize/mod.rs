@@ -132,7 +132,13 @@ impl Relocalizer {
             consistency::build_graph(prior, &query, &associations, dof, &config.consistency)?;
         timings.graph_ms = ms_since(t);
         let tolerances = Tolerances::from_summary(&summary, &config.consistency);
-        let scaled = tolerances.scaled(config);
+        let mut scaled = tolerances.scaled(config);
+        if let Some(grid) = scaled.as_mut() {
+            // wide (grid) tolerances: a wrong transform must not pass on chance inliers
+            let chance =
+                verify::chance_inliers(&prior.points, query.len(), grid.refine.inlier_threshold_m);
+            grid.verification.min_inliers = grid.verification.min_inliers.max(chance);
+        }
         let config = scaled.as_ref().unwrap_or(config);
 
         // Graph → cliques → aligned and refined hypotheses.

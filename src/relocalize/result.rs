@@ -171,7 +171,16 @@ impl Tolerances {
         let mut out = config.clone();
         out.refine.gate_m *= s;
         out.refine.inlier_threshold_m *= s;
-        out.refine.cauchy_scale_m *= s;
+        // the kernel's scale: at least the RMS residual one median association's covariances
+        // predict (the median tolerance over the multiplier: 6.3 cm against the 0.15 m grid).
+        // A narrower kernel lets the few pairs that happen to sit within a centimetre pull the
+        // yaw (traverse 8: 0.34° with 1.3 cm, see docs/design/covariance-tolerances.md)
+        let predicted_m = if config.consistency.sigma_multiplier > 0.0 {
+            self.epsilon_median_m / config.consistency.sigma_multiplier
+        } else {
+            0.0
+        };
+        out.refine.cauchy_scale_m = (config.refine.cauchy_scale_m * s).max(predicted_m);
         out.verification.same_hypothesis_m *= s;
         // a wider inlier gate lets more landmarks fall in it by chance (measured on mirrored
         // traverses against the 0.15 m grid: 5 of 340 accepted with 6 inliers); linear in the
@@ -366,4 +375,31 @@ pub fn matrix6_rows(m: &Matrix6<f64>) -> [[f64; 6]; 6] {
         }
     }
     rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::relocalize::RelocalizeConfig;
+
+    #[test]
+    fn scaled_kernel_follows_the_predicted_residual() {
+        let config = RelocalizeConfig::default();
+        let session = Tolerances {
+            epsilon_median_m: 0.08,
+            refine_scale: 1.0,
+            ..Tolerances::default()
+        };
+        assert!(session.scaled(&config).is_none());
+        // a 0.15 m grid: median tolerance 12.6 cm, k = 2 → one association's RMS residual 6.3 cm
+        let grid = Tolerances {
+            epsilon_median_m: 0.126,
+            refine_scale: 0.126 / 0.08,
+            ..Tolerances::default()
+        };
+        let scaled = grid.scaled(&config).unwrap();
+        assert!((scaled.refine.cauchy_scale_m - 0.063).abs() < 1e-12);
+        let gate = config.refine.gate_m * 0.126 / 0.08;
+        assert!((scaled.refine.gate_m - gate).abs() < 1e-12);
+    }
 }
