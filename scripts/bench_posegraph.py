@@ -367,7 +367,7 @@ def main():
     ap.add_argument("--cpu", type=int, default=0)
     ap.add_argument("--no-write", action="store_true")
     ap.add_argument("--datasets-only", action="store_true",
-                    help="print the datasets table only (after the sphere2500 runs); write nothing")
+                    help="print the datasets table only; write nothing")
     ap.add_argument("--datasets-section", action="store_true",
                     help="run only the public/generated datasets against GTSAM and print a short "
                          "markdown section (at most 25 lines); write nothing")
@@ -389,32 +389,6 @@ def main():
         load = os.getloadavg()[0]
         print("\n".join(dataset_section(dataset_rows(args, seg), args, load)))
         return
-
-    # --- sphere2500: GTSAM vs segloc, alternating runs ---------------------------------------
-    graph, initial = build_problem(read_toro(sphere))
-    rows = {"gtsam": [], "gtsam_chordal": [], "segloc": [], "segloc_chained": []}
-    for r in range(args.runs):
-        rows["gtsam"].append(run_gtsam(graph, initial))
-        s = seg("optimize", sphere)
-        rows["segloc"].append((s["final_cost"], s["iterations"], s["time_ms"], s))
-        rows["gtsam_chordal"].append(run_gtsam_chordal(graph, initial))
-        s = seg("optimize", sphere, "--init", "chained")
-        rows["segloc_chained"].append((s["final_cost"], s["iterations"], s["time_ms"], s))
-        print(f"run {r + 1}/{args.runs}: gtsam {rows['gtsam'][-1][2]:.1f} ms, "
-              f"segloc {rows['segloc'][-1][2]:.1f} ms, segloc chained {rows['segloc_chained'][-1][2]:.1f} ms",
-              file=sys.stderr)
-    med = {k: statistics.median(x[2] for x in v) for k, v in rows.items()}
-    best = {k: min(x[2] for x in v) for k, v in rows.items()}
-    cost = {k: v[0][0] for k, v in rows.items()}
-    iters = {k: v[0][1] for k, v in rows.items()}
-    g_cost = cost["gtsam"]
-    rel = {k: abs(c - g_cost) / g_cost for k, c in cost.items()}
-    # Ratio per run (same load), then the median.
-    ratio = {k: statistics.median(s[2] / g[2] for s, g in zip(rows[k], rows["gtsam"]))
-             for k in ("segloc", "segloc_chained")}
-    seg_default = rows["segloc"][0][3]
-    fastest_default = min(rows["segloc"], key=lambda x: x[2])[3]
-    seg_chained = rows["segloc_chained"][0][3]
 
     # --- public datasets and generated bignoise-like graphs -----------------------------------
     data_rows = dataset_rows(args, seg)
@@ -469,43 +443,6 @@ def main():
         "alternate so both solvers see the same load; times exclude file reading; the first ratio is "
         "the median over runs of segloc/GTSAM time in the same run, the second the ratio of the best "
         "times.",
-        "",
-        "### sphere2500 (2,500 poses, 4,949 edges, pose 0 fixed, chained-odometry initial estimate)",
-        "",
-        "| solver | final cost | rel. diff to GTSAM | iterations | median time (ms) | best time (ms) | ratio to GTSAM LM (median of runs / best) |",
-        "|---|---|---|---|---|---|---|",
-        f"| GTSAM LM | {g_cost:.6f} | — | {iters['gtsam']} | {med['gtsam']:.1f} | {best['gtsam']:.1f} | 1 |",
-        f"| GTSAM InitializePose3 + LM | {cost['gtsam_chordal']:.6f} | {rel['gtsam_chordal']:.1e} | "
-        f"{iters['gtsam_chordal']} | {med['gtsam_chordal']:.1f} | {best['gtsam_chordal']:.1f} | "
-        f"{med['gtsam_chordal'] / med['gtsam']:.2f} / {best['gtsam_chordal'] / best['gtsam']:.2f} |",
-        f"| `segloc graph optimize` (default: chordal init, chord steps) | {cost['segloc']:.6f} | "
-        f"{rel['segloc']:.1e} | {iters['segloc']} ({seg_default['factorizations']} factorisations, "
-        f"{seg_default.get('single_precision_factorizations', 0)} in single precision) | "
-        f"{med['segloc']:.1f} | {best['segloc']:.1f} | **{ratio['segloc']:.3f}** / {best['segloc'] / best['gtsam']:.3f} |",
-        f"| `segloc graph optimize --init chained` (LM from the same start as GTSAM) | "
-        f"{cost['segloc_chained']:.6f} | {rel['segloc_chained']:.1e} | {iters['segloc_chained']} "
-        f"({seg_chained['factorizations']} factorisations, "
-        f"{seg_chained.get('single_precision_factorizations', 0)} in single precision) | {med['segloc_chained']:.1f} | "
-        f"{best['segloc_chained']:.1f} | {ratio['segloc_chained']:.3f} / "
-        f"{best['segloc_chained'] / best['gtsam']:.3f} |",
-        "",
-        "segloc time split (fastest default run): " + ", ".join(
-            f"{k.replace('_ms', '')} {v:.1f} ms" for k, v in fastest_default["profile"].items()) + ".",
-        "",
-        "Targets: same final cost (≤ 1e-6 relative) — "
-        + ("met" if max(rel["segloc"], rel["segloc_chained"]) <= 1e-6 else "**not met**")
-        + f"; ≤ ¼ of GTSAM's time — default {'met' if ratio['segloc'] <= 0.25 else '**not met**'} "
-        f"({ratio['segloc']:.3f}), chained start {'met' if ratio['segloc_chained'] <= 0.25 else '**not met**'} "
-        f"({ratio['segloc_chained']:.3f}). Both solvers do the same sparse Cholesky work per "
-        f"iteration; in the fastest segloc run one faer supernodal factorisation took "
-        f"{fastest_default['profile']['factorize_ms'] / max(fastest_default['factorizations'], 1):.1f} ms "
-        f"({fastest_default.get('factor_nnz', 0) / 1e6:.2f} M non-zeros in L). segloc needs "
-        f"{fastest_default['factorizations']} factorisations where GTSAM's LM needs {iters['gtsam']} "
-        "(chordal start, a chord step at the end), factorises in single precision while far from "
-        "the optimum (each solve refined once in double precision; costs and the convergence test in "
-        "double), and its binary backs large buffers with transparent huge pages. Times are of single "
-        "cold runs of the `segloc` process (analysis included, file reading excluded), against GTSAM "
-        "runs repeated in one warm Python process.",
         "",
         *dataset_lines(data_rows),
         "### Wrong loop closures (10% of the 2,450 loop closures replaced by random relative poses)",

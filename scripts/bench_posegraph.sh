@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Pose-graph benchmark of issue 3: segloc against GTSAM on sphere2500, side by side.
+# Pose-graph benchmark: segloc against GTSAM on the public 3D datasets, side by side.
 #
 # Creates a virtual environment under target/bench-venv, installs gtsam from PyPI (it ships
 # sphere2500.txt and its ground truth in its Data/ folder), builds segloc in release mode and

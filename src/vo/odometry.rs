@@ -58,6 +58,10 @@ pub struct VoGyroConfig {
     /// refinement) and the gyro's before the images' is refused, degrees (default 0.1;
     /// see docs/design/vo-gyro.md).
     pub max_disagreement_deg: f64,
+    /// Largest change of the translation from the predicted one (the last frame's) that a
+    /// translation found alone may make, metres (default 0.05: a rover's camera moves a few
+    /// centimetres between 10 Hz frames; a few wrong inliers can propose decimetres).
+    pub max_translation_jump_m: f64,
 }
 
 impl Default for VoGyroConfig {
@@ -65,6 +69,7 @@ impl Default for VoGyroConfig {
         Self {
             enabled: true,
             max_disagreement_deg: 0.1,
+            max_translation_jump_m: 0.05,
         }
     }
 }
@@ -106,6 +111,9 @@ impl VoConfig {
         }
         if self.gyro.max_disagreement_deg.is_nan() || self.gyro.max_disagreement_deg <= 0.0 {
             return bad("gyro.max_disagreement_deg must be positive");
+        }
+        if self.gyro.max_translation_jump_m.is_nan() || self.gyro.max_translation_jump_m <= 0.0 {
+            return bad("gyro.max_translation_jump_m must be positive");
         }
         Ok(())
     }
@@ -337,8 +345,15 @@ impl StereoOdometry {
         {
             return (image, false);
         }
+        let max_jump = self.config.gyro.max_translation_jump_m;
         let fallback =
-            translation_given_rotation(&self.camera, correspondences, &gyro, &self.config.motion);
+            translation_given_rotation(&self.camera, correspondences, &gyro, &self.config.motion)
+                .filter(|m| {
+                    (m.curr_from_prev.translation.vector
+                        - prediction.curr_from_prev.translation.vector)
+                        .norm()
+                        <= max_jump
+                });
         let kept = fallback.is_some();
         (fallback, kept)
     }

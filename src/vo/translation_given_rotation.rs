@@ -1,18 +1,19 @@
 //! The frame's translation when its rotation is known (from the gyro): every stereo-matched
 //! correspondence proposes one translation (`p_curr − R · p_prev`), the one with the most
 //! reprojection inliers wins, and a Gauss–Newton refinement with a Huber kernel adjusts the
-//! three translation coordinates alone. Two inliers determine it where the full motion needs
-//! six, so a frame with few features (a dark slope filling the view) still moves.
+//! three translation coordinates alone. Five inliers are asked where the full motion needs
+//! six (one determines it, but three were seen to agree on a wrong one), so a frame with
+//! few features (a dark slope filling the view) still moves.
 
 use super::motion::{inliers_of, residual, Correspondence, MotionConfig, MotionEstimate};
 use crate::graph::StereoCalibration;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3};
 
 /// Fewest inliers for a translation-only motion.
-const MIN_INLIERS: usize = 3;
+const MIN_INLIERS: usize = 5;
 
 /// `curr_from_prev` with the given rotation and the translation the correspondences agree
-/// on; `None` when fewer than three agree.
+/// on; `None` when fewer than five agree.
 pub fn translation_given_rotation(
     camera: &StereoCalibration,
     cs: &[Correspondence],
@@ -120,7 +121,7 @@ mod tests {
     use nalgebra::{Point3, Vector6};
 
     #[test]
-    fn three_points_and_the_true_rotation_give_the_true_translation() {
+    fn five_points_and_the_true_rotation_give_the_true_translation() {
         let camera = StereoCalibration {
             fx: 900.0,
             fy: 900.0,
@@ -134,6 +135,8 @@ mod tests {
             Point3::new(-0.5, 0.3, 3.0),
             Point3::new(0.4, 0.5, 4.0),
             Point3::new(0.1, 0.2, 2.5),
+            Point3::new(-1.0, -0.2, 5.0),
+            Point3::new(1.5, 0.1, 6.0),
             Point3::new(5.0, -1.0, 9.0), // an outlier below
         ];
         let mut cs: Vec<Correspondence> = points
@@ -143,16 +146,16 @@ mod tests {
                 uv: camera.project(&(truth * p).coords).unwrap(),
             })
             .collect();
-        cs[3].uv.x += 40.0;
-        cs[3].uv.y += 40.0;
+        cs[5].uv.x += 40.0;
+        cs[5].uv.y += 40.0;
         let m = translation_given_rotation(&camera, &cs, &truth.rotation, &MotionConfig::default())
             .unwrap();
         assert!((m.curr_from_prev.translation.vector - truth.translation.vector).norm() < 1e-9);
-        assert_eq!(m.inliers, [true, true, true, false]);
-        // two points are not enough
+        assert_eq!(m.inliers, [true, true, true, true, true, false]);
+        // four points are not enough
         assert!(translation_given_rotation(
             &camera,
-            &cs[..2],
+            &cs[..4],
             &truth.rotation,
             &MotionConfig::default()
         )
