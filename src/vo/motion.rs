@@ -190,6 +190,34 @@ pub fn rotation_sigma_rad(information: &Matrix6<f64>, pixel_sigma: f64) -> f64 {
     }
 }
 
+/// The reprojection's Jacobian at the point `q` (current camera frame) for the left
+/// perturbation `T ← Exp(δ) · T`, (rotation, translation) columns: `P · [−[q]×, I]`; the
+/// right-image row is zero when the correspondence has no right match.
+pub(super) fn reprojection_jacobian(
+    camera: &StereoCalibration,
+    q: &Vector3<f64>,
+    c: &Correspondence,
+) -> nalgebra::SMatrix<f64, 3, 6> {
+    let p = camera.projection_jacobian(q);
+    let mut j = nalgebra::SMatrix::<f64, 3, 6>::zeros();
+    j.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(-p * se3::hat(q)));
+    j.fixed_view_mut::<3, 3>(0, 3).copy_from(&p);
+    if c.uv.y.is_nan() {
+        j.row_mut(1).fill(0.0);
+    }
+    j
+}
+
+/// The Huber weight of a residual of norm `norm` for the threshold `huber`.
+pub(super) fn huber_weight(norm: f64, huber: f64) -> f64 {
+    if norm <= huber {
+        1.0
+    } else {
+        huber / norm
+    }
+}
+
 /// Gauss–Newton with a Huber kernel on the reprojection error of the inliers (left
 /// perturbation `T ← Exp(δ) · T`); returns the pose and `JᵀJ` (right-perturbation order is
 /// not needed by the callers: the matrix is a diagnostic).
@@ -209,21 +237,8 @@ fn refine(
             let Some((e, q)) = residual(camera, &t, c) else {
                 continue;
             };
-            let p = camera.projection_jacobian(&q);
-            // dq/dδ for T ← Exp(δ) T: [−[q]×, I]
-            let mut j = nalgebra::SMatrix::<f64, 3, 6>::zeros();
-            j.fixed_view_mut::<3, 3>(0, 0)
-                .copy_from(&(-p * se3::hat(&q)));
-            j.fixed_view_mut::<3, 3>(0, 3).copy_from(&p);
-            if c.uv.y.is_nan() {
-                j.row_mut(1).fill(0.0);
-            }
-            let norm = e.norm();
-            let w = if norm <= config.huber_px {
-                1.0
-            } else {
-                config.huber_px / norm
-            };
+            let j = reprojection_jacobian(camera, &q, c);
+            let w = huber_weight(e.norm(), config.huber_px);
             h += j.transpose() * j * w;
             g += j.transpose() * e * w;
         }

@@ -5,7 +5,10 @@
 //! six (one determines it, but three were seen to agree on a wrong one), so a frame with
 //! few features (a dark slope filling the view) still moves.
 
-use super::motion::{inliers_of, residual, Correspondence, MotionConfig, MotionEstimate};
+use super::motion::{
+    huber_weight, inliers_of, reprojection_jacobian, residual, Correspondence, MotionConfig,
+    MotionEstimate,
+};
 use crate::graph::StereoCalibration;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3};
 
@@ -65,16 +68,10 @@ fn refine_translation(
             let Some((e, q)) = residual(camera, &t, c) else {
                 continue;
             };
-            let mut j = camera.projection_jacobian(&q);
-            if c.uv.y.is_nan() {
-                j.row_mut(1).fill(0.0);
-            }
-            let norm = e.norm();
-            let w = if norm <= config.huber_px {
-                1.0
-            } else {
-                config.huber_px / norm
-            };
+            let j = reprojection_jacobian(camera, &q, c)
+                .fixed_view::<3, 3>(0, 3)
+                .into_owned();
+            let w = huber_weight(e.norm(), config.huber_px);
             h += j.transpose() * j * w;
             g += j.transpose() * e * w;
         }
@@ -101,14 +98,7 @@ fn information_at(
         let Some((_, q)) = residual(camera, t, c) else {
             continue;
         };
-        let p = camera.projection_jacobian(&q);
-        let mut j = nalgebra::SMatrix::<f64, 3, 6>::zeros();
-        j.fixed_view_mut::<3, 3>(0, 0)
-            .copy_from(&(-p * crate::graph::se3::hat(&q)));
-        j.fixed_view_mut::<3, 3>(0, 3).copy_from(&p);
-        if c.uv.y.is_nan() {
-            j.row_mut(1).fill(0.0);
-        }
+        let j = reprojection_jacobian(camera, &q, c);
         h += j.transpose() * j;
     }
     h
