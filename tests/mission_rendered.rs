@@ -1,6 +1,7 @@
 //! The mission on rendered images end to end (`segloc mission --sensors rendered --half`):
 //! every camera frame's stereo pairs rendered and run through the perception front end,
-//! whose boulders feed the maps, the relocalization and the planner.
+//! whose boulders feed the maps, the relocalization and the planner, and the odometry from
+//! the stereo VO on the front pair rendered at 10 Hz.
 
 mod common;
 
@@ -14,7 +15,7 @@ fn short_rendered_mission_reports_perception() {
             "--seed",
             "2",
             "--seconds",
-            "60",
+            "30",
             "--sensors",
             "rendered",
             "--half",
@@ -26,8 +27,8 @@ fn short_rendered_mission_reports_perception() {
     let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(v["sessions"].as_array().map(Vec::len), Some(2));
     let p = &v["perception"];
-    // two pairs (front, back) per camera frame, 61 frames per 60 s session
-    assert_eq!(p["pairs"].as_u64(), Some(2 * 2 * 61), "{p}");
+    // two pairs (front, back) per camera frame, 31 frames per 30 s session
+    assert_eq!(p["pairs"].as_u64(), Some(2 * 2 * 31), "{p}");
     assert_eq!(p["width_px"].as_u64(), Some(640), "{p}");
     assert_eq!(p["segmenter"].as_str(), Some("geometric"), "{p}");
     assert!(p["rocks"].as_u64().unwrap() > 0, "{p}");
@@ -54,6 +55,22 @@ fn short_rendered_mission_reports_perception() {
         v["config"]["perception"]["sensors"].as_str(),
         Some("rendered")
     );
+    // the odometry came from the images: a pair every other tick, 301 a session
+    assert_eq!(
+        v["config"]["perception"]["odometry"].as_str(),
+        Some("images")
+    );
+    for s in v["sessions"].as_array().unwrap() {
+        let vo = &s["image_odometry"];
+        assert_eq!(vo["pairs"].as_u64(), Some(301), "{vo}");
+        assert!(vo["lost"].as_u64().unwrap() < 30, "{vo}");
+        assert!(vo["vo_ms"]["median"].as_f64().unwrap() > 0.0, "{vo}");
+        let without_global = s["rmse_without_global_m"].as_f64().unwrap();
+        assert!(
+            without_global < 0.5,
+            "odometry alone {without_global} m off in 30 s"
+        );
+    }
 }
 
 #[test]
@@ -62,6 +79,7 @@ fn image_options_without_rendered_sensors_are_bad_input() {
         &["mission", "--half"][..],
         &["mission", "--sensors", "model", "--segmenter", "onnx"],
         &["mission", "--sensors", "pixels"],
+        &["mission", "--vo", "model"],
     ] {
         let output = segloc().args(args).output().unwrap();
         assert_eq!(

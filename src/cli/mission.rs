@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use segloc::mission::grid_start::Session1Start;
-use segloc::mission::perception::BoulderSensors;
+use segloc::mission::perception::{BoulderSensors, OdometrySource};
 use segloc::mission::{
     run_mission_with, MissionConfig, MissionOutput, MissionProgress, MissionStage, Silent,
 };
@@ -57,6 +57,11 @@ pub struct MissionArgs {
     /// Render at half resolution (640 × 360) with `--sensors rendered`.
     #[arg(long)]
     pub half: bool,
+    /// With `--sensors rendered`: the odometry from the stereo VO on the rendered front
+    /// pair (`images`), or from the drift model (`model`) (default: the mission
+    /// configuration's `perception.odometry`, "images").
+    #[arg(long, value_enum)]
+    pub vo: Option<VoArg>,
     /// How session 1 starts: at its known pose, or lost with a seeded wrong guess,
     /// relocalizing against the site's ground-truth rock grid (default: the mission
     /// configuration's `session_1_start`, "known").
@@ -71,6 +76,15 @@ pub enum Session1StartArg {
     Known,
     /// Lost, relocalized against the site's rock grid (`session_1_start = "lost_vs_grid"`).
     LostVsGrid,
+}
+
+/// `--vo`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VoArg {
+    /// The stereo visual odometry on rendered images.
+    Images,
+    /// The drift model (`sim::visual_odometry`).
+    Model,
 }
 
 /// `--sensors`.
@@ -154,6 +168,11 @@ fn mission_config(
     if args.half {
         mission.perception.render.resolution_scale = 0.5;
     }
+    match args.vo {
+        Some(VoArg::Images) => mission.perception.odometry = OdometrySource::Images,
+        Some(VoArg::Model) => mission.perception.odometry = OdometrySource::Model,
+        None => {}
+    }
     match args.session1_start {
         Some(Session1StartArg::Known) => mission.session_1_start = Session1Start::Known,
         Some(Session1StartArg::LostVsGrid) => mission.session_1_start = Session1Start::LostVsGrid,
@@ -166,8 +185,12 @@ fn mission_config(
 /// geometric one); `--segmenter`, `--model` and `--half` are refused with the sensor model.
 fn segmenter(args: &MissionArgs, config: &MissionConfig) -> Result<Option<Box<dyn Segmenter>>> {
     if config.perception.sensors == BoulderSensors::Model {
-        if args.segmenter != SegmenterKind::Geometric || args.model.is_some() || args.half {
-            bail!("--segmenter, --model and --half need --sensors rendered");
+        if args.segmenter != SegmenterKind::Geometric
+            || args.model.is_some()
+            || args.half
+            || args.vo.is_some()
+        {
+            bail!("--segmenter, --model, --half and --vo need --sensors rendered");
         }
         return Ok(None);
     }
@@ -323,6 +346,7 @@ impl MissionArgs {
             segmenter: SegmenterKind::Geometric,
             model: None,
             half: false,
+            vo: None,
             session1_start: None,
         }
     }

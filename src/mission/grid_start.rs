@@ -24,7 +24,7 @@ use crate::landmarks::from_grid::map_from_rock_cells;
 use crate::landmarks::GridRocksConfig;
 use crate::localizer::{Localizer, LocalizerConfig, LocalizerError, SessionResult};
 use crate::sim::moon::Moon;
-use crate::sim::rendered_boulders::RenderedBoulders;
+use crate::sim::rendered_sensors::RenderedSensors;
 use crate::sim::session::{PlanarPose, SessionLog, SessionSim};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
@@ -227,15 +227,14 @@ pub fn grid_start_session_with(
     start: PlanarPose,
     seeds: (u64, u64),
     progress: &dyn MissionProgress,
-    mut rendered: Option<&mut RenderedBoulders>,
+    mut rendered: Option<&mut RenderedSensors>,
 ) -> Result<MappedSession, MissionError> {
     let (mission_seed, seed) = seeds;
     let site = moon.ground_truth_grid();
     let prior = grid_prior(&site, &config.session_1_lost)?;
     let guess = config.session_1_lost.guess(start, mission_seed);
     let session = lost_session_config(&config.session, config.seconds_per_session, start, guess);
-    let mut sim =
-        SessionSim::with_rendered_boulders(moon, &session, seed, rendered.as_deref_mut())?;
+    let mut sim = SessionSim::with_rendered_sensors(moon, &session, seed, rendered.as_deref_mut())?;
     let grid_localizer = config.session_1_lost.localizer(&config.localizer);
     let mut lost = LostStart::new(&mut sim, &prior, (config, grid_localizer), 1)?;
     let mut mapping: Option<AnchoredMapping> = None;
@@ -252,7 +251,7 @@ pub fn grid_start_session_with(
         }
     }
     let log = sim.finish();
-    if let Some(e) = rendered.and_then(|r| r.take_error()) {
+    if let Some(e) = rendered.and_then(|r| r.boulders.take_error()) {
         return Err(e.into());
     }
     let grid = lost.finish(&log)?;

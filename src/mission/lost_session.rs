@@ -10,7 +10,7 @@ use super::{Attempt, MissionConfig, MissionError};
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
 use crate::localizer::odometry_bias::OdometryBias;
 use crate::sim::moon::Moon;
-use crate::sim::rendered_boulders::RenderedBoulders;
+use crate::sim::rendered_sensors::RenderedSensors;
 use crate::sim::session::{SessionLog, SessionSim};
 use nalgebra::Isometry3;
 use segloc_maps::ObjectMap;
@@ -57,19 +57,18 @@ pub fn localize_session_with(
     start_guess: ([f64; 3], [f64; 3]),
     seed: u64,
     progress: &dyn MissionProgress,
-    mut rendered: Option<&mut RenderedBoulders>,
+    mut rendered: Option<&mut RenderedSensors>,
 ) -> Result<LocalizedSession, MissionError> {
     let (start, guess) = start_guess;
     let duration_s = config.session_seconds()[1];
     let session = lost_session_config(config.session_2(), duration_s, start, guess);
-    let mut sim =
-        SessionSim::with_rendered_boulders(moon, &session, seed, rendered.as_deref_mut())?;
+    let mut sim = SessionSim::with_rendered_sensors(moon, &session, seed, rendered.as_deref_mut())?;
     let mut lost = LostStart::new(&mut sim, prior_map, (config, config.localizer.clone()), 2)?;
     while sim.step() {
         lost.after_step(&mut sim, progress)?;
     }
     let log = sim.finish();
-    if let Some(e) = rendered.and_then(|r| r.take_error()) {
+    if let Some(e) = rendered.and_then(|r| r.boulders.take_error()) {
         return Err(e.into());
     }
     let result = lost.finish(&log)?;

@@ -11,7 +11,7 @@ use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::view_bias::ViewBiasCalibration;
 use crate::localizer::{Localizer, SessionResult};
 use crate::sim::moon::Moon;
-use crate::sim::rendered_boulders::RenderedBoulders;
+use crate::sim::rendered_sensors::RenderedSensors;
 use crate::sim::session::{SessionConfig, SessionLog, SessionSim};
 use nalgebra::Isometry3;
 use segloc_maps::ObjectMap;
@@ -97,7 +97,7 @@ pub fn map_session_with(
     start: [f64; 3],
     seed: u64,
     progress: &dyn MissionProgress,
-    mut rendered: Option<&mut RenderedBoulders>,
+    mut rendered: Option<&mut RenderedSensors>,
 ) -> Result<MappedSession, MissionError> {
     let session = SessionConfig {
         duration_s: config.seconds_per_session,
@@ -105,8 +105,7 @@ pub fn map_session_with(
         initial_guess: None,
         ..config.session.clone()
     };
-    let mut sim =
-        SessionSim::with_rendered_boulders(moon, &session, seed, rendered.as_deref_mut())?;
+    let mut sim = SessionSim::with_rendered_sensors(moon, &session, seed, rendered.as_deref_mut())?;
     let mut localizer = Localizer::new(None, config.localizer.clone())?;
     let mut pushed = 0;
     while sim.step() {
@@ -121,7 +120,7 @@ pub fn map_session_with(
         }
     }
     let log = sim.finish();
-    if let Some(e) = rendered.and_then(|r| r.take_error()) {
+    if let Some(e) = rendered.and_then(|r| r.boulders.take_error()) {
         return Err(e.into());
     }
     push_new_frames(&mut localizer, &log, &mut pushed)?;

@@ -309,9 +309,7 @@ pub fn drive_sessions_with(
 ) -> Result<Sessions, MissionError> {
     config.validate()?;
     let moon = Moon::generate(&config.moon, seed)?;
-    let mut rendered = config
-        .perception
-        .rendered_boulders(&moon, seed, segmenter)?;
+    let mut rendered = config.perception.rendered_sensors(&moon, seed, segmenter)?;
     let clear = |s: [f64; 3], session: &SessionConfig| {
         let min_rock = session.collision_min_rock_radius_m;
         let (x, y) = moon.nearest_clear_position(s[0], s[1], 1.0, min_rock);
@@ -355,7 +353,7 @@ pub fn drive_sessions_with(
         config,
         one,
         two,
-        perception: rendered.map(|r| r.summary()),
+        perception: rendered.map(|r| r.boulders.summary()),
     })
 }
 

@@ -1,5 +1,6 @@
-//! Where the mission's boulder detections come from: the sensor model (default) or the
-//! perception front end on rendered stereo pairs ([`RenderedBoulders`]), and its settings.
+//! Where the mission's boulder detections and odometry come from: the sensor models
+//! (default) or the rendered stereo pairs ([`RenderedSensors`]: the perception front end's
+//! boulders, and the stereo visual odometry unless `odometry = "model"`), and their settings.
 
 use super::MissionError;
 use crate::perception::{FrontEnd, FrontEndConfig, GeometricSegmenter, Segmenter};
@@ -7,6 +8,8 @@ use crate::sim::moon::Moon;
 use crate::sim::render::scoring::MatchConfig;
 use crate::sim::render::{RenderConfig, RenderError};
 use crate::sim::rendered_boulders::RenderedBoulders;
+use crate::sim::rendered_odometry::{ImageOdometryConfig, RenderedOdometry};
+use crate::sim::rendered_sensors::RenderedSensors;
 use serde::{Deserialize, Serialize};
 
 /// The source of the sessions' boulder detections.
@@ -18,6 +21,17 @@ pub enum BoulderSensors {
     Model,
     /// The front end on the rendered stereo pairs of every camera frame.
     Rendered,
+}
+
+/// The source of the sessions' odometry when the boulders come from images.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OdometrySource {
+    /// The stereo visual odometry on the rendered front pair ([`RenderedOdometry`]).
+    #[default]
+    Images,
+    /// The drift model ([`crate::sim::visual_odometry`]), as with `sensors = "model"`.
+    Model,
 }
 
 /// The mission's perception settings (TOML section `[perception]`).
@@ -33,6 +47,11 @@ pub struct PerceptionConfig {
     pub front_end: FrontEndConfig,
     /// What counts as a true detection in the report's `perception`.
     pub matching: MatchConfig,
+    /// With `sensors = "rendered"`: the odometry from `"images"` (the stereo VO) or
+    /// `"model"` (the drift model). The sensor model always uses the drift model.
+    pub odometry: OdometrySource,
+    /// The odometry from images.
+    pub image_odometry: ImageOdometryConfig,
 }
 
 impl PerceptionConfig {
@@ -67,27 +86,43 @@ impl PerceptionConfig {
         if !(0.0..=1.0).contains(&m.min_visible_fraction) {
             return bad("perception.matching.min_visible_fraction must be within [0, 1]".into());
         }
+        if self.image_odometry.period_ticks == 0 {
+            return bad("perception.image_odometry.period_ticks must be at least 1".into());
+        }
+        if let Err(e) = self.image_odometry.vo.validate() {
+            return bad(format!("perception.image_odometry.vo: {e}"));
+        }
         Ok(())
     }
 
-    /// The renderer and front end of a mission on `moon` (of seed `seed`) when
-    /// `sensors = "rendered"`, with `segmenter` (default: the geometric one); `None` with
-    /// the sensor model.
-    pub fn rendered_boulders(
+    /// The renderer, front end and image odometry of a mission on `moon` (of seed `seed`)
+    /// when `sensors = "rendered"`, with `segmenter` (default: the geometric one); `None`
+    /// with the sensor model.
+    pub fn rendered_sensors(
         &self,
         moon: &Moon,
         seed: u64,
         segmenter: Option<Box<dyn Segmenter>>,
-    ) -> Result<Option<RenderedBoulders>, MissionError> {
+    ) -> Result<Option<RenderedSensors>, MissionError> {
         if self.sensors == BoulderSensors::Model {
             return Ok(None);
         }
         let segmenter = segmenter
             .unwrap_or_else(|| Box::new(GeometricSegmenter::new(self.front_end.geometric.clone())));
         let front_end = FrontEnd::new(self.front_end.clone(), segmenter)?;
-        let rendered =
+        let boulders =
             RenderedBoulders::new(moon, &self.render, seed, front_end, self.matching.clone())?;
-        Ok(Some(rendered))
+        let odometry = match self.odometry {
+            OdometrySource::Images => {
+                let odometry = RenderedOdometry::new(&self.image_odometry, boulders.renderer())
+                    .map_err(|e| {
+                        MissionError::InvalidConfig(format!("perception.image_odometry: {e}"))
+                    })?;
+                Some(odometry)
+            }
+            OdometrySource::Model => None,
+        };
+        Ok(Some(RenderedSensors { boulders, odometry }))
     }
 }
 

@@ -10,7 +10,9 @@ use crate::localizer::AttemptStatus;
 use crate::mapping::pictures::{height_error_png, rock_map_png, trajectory_png, Polyline};
 use crate::mapping::LacScore;
 use crate::sim::rendered_boulders::PerceptionSummary;
+use crate::sim::rendered_odometry::ImageOdometryStats;
 use crate::sim::session::SessionLog;
+use crate::vo::{segment_drift, SegmentDrift};
 use nalgebra::Isometry3;
 use segloc_maps::LacGrid;
 use serde::Serialize;
@@ -102,6 +104,14 @@ pub struct SessionReport {
     pub rmse_graph_m: f64,
     /// Position RMSE of odometry alone, aligned at the true start, metres.
     pub rmse_without_global_m: f64,
+    /// The odometry's translation drift over 10 m segments (KITTI's metric, mean), percent
+    /// (`None`: a path shorter than 10 m).
+    pub vo_drift_percent: Option<f64>,
+    /// The odometry's drift over 10 m segments in full (`None`: a path shorter than 10 m).
+    pub vo_drift: Option<SegmentDrift>,
+    /// What the odometry from images did (absent: the drift model measured the steps).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub image_odometry: Option<ImageOdometryStats>,
     /// Position RMSE of the pose graph's estimate before the boulder adjustment, metres.
     pub rmse_before_adjustment_m: f64,
     /// What the boulder adjustment did (`None`: off).
@@ -265,6 +275,7 @@ fn session_report(
     lost_start: Option<LostStartReport>,
 ) -> SessionReport {
     let s = log.summary();
+    let vo_drift = odometry_drift(log);
     SessionReport {
         session: n,
         duration_s: s.duration_s,
@@ -272,6 +283,9 @@ fn session_report(
         rmse_m: rmse_m(log, poses),
         rmse_graph_m: adjusted.rmse_graph_m,
         rmse_without_global_m: rmse_m(log, &odometry_in_world(log)),
+        vo_drift_percent: vo_drift.map(|d| d.translation_percent),
+        vo_drift,
+        image_odometry: log.image_odometry.clone(),
         rmse_before_adjustment_m: adjusted.rmse_before_adjustment_m,
         boulder_adjustment: adjusted.adjustment.clone(),
         collisions: s.collisions,
@@ -280,6 +294,17 @@ fn session_report(
         simulation_wall_s: log.wall_time_s,
         lost_start,
     }
+}
+
+/// The session's odometry (`session_from_rover`) against the truth over 10 m segments, at
+/// the odometry's own rate when it ran on images (every tick with the drift model).
+fn odometry_drift(log: &SessionLog) -> Option<SegmentDrift> {
+    let every = log.image_odometry.as_ref().map_or(1, |o| o.period_ticks);
+    let ticks = log.ticks.iter().step_by(every.max(1));
+    let (estimate, truth): (Vec<_>, Vec<_>) = ticks
+        .map(|t| (t.session_from_rover, t.world_from_rover))
+        .unzip();
+    segment_drift(&estimate, &truth, 10.0)
 }
 
 fn xy(poses: impl Iterator<Item = Isometry3<f64>>) -> Vec<(f64, f64)> {

@@ -3,7 +3,8 @@
 //!
 //! The simulator's session does not draw these (its random streams, and so the mission,
 //! stay as they are); `segloc sim render` computes them from the logged true poses of the
-//! frames it writes, with a stream of its own.
+//! frames it writes ([`gyro_rates`]), and the mission's odometry from images reads them
+//! pair by pair as it drives ([`Gyro`]), each with a stream of its own.
 
 use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -46,26 +47,54 @@ pub fn gyro_rates(
     config: &GyroConfig,
     seed: u64,
 ) -> Vec<Vector3<f64>> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ GYRO_STREAM);
-    let bias = random_direction(&mut rng) * config.bias_rad_s;
-    let mut previous: Option<&(f64, Isometry3<f64>)> = None;
+    let mut gyro = Gyro::new(config, seed);
     frames
         .iter()
-        .map(|frame| {
-            let (rate, dt) = match previous {
-                Some((t0, world_from_prev)) if frame.0 > *t0 => {
-                    let dt = frame.0 - t0;
-                    let prev_from_curr = world_from_prev.rotation.inverse() * frame.1.rotation;
-                    (prev_from_curr.scaled_axis() / dt, dt)
-                }
-                _ => (Vector3::zeros(), 1.0),
-            };
-            previous = Some(frame);
-            let sigma = config.noise_density_rad_s_sqrt_hz / dt.sqrt();
-            let noise = Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)) * sigma;
-            rate + bias + noise
-        })
+        .map(|(time_s, world_from_rover)| gyro.read(*time_s, world_from_rover))
         .collect()
+}
+
+/// A gyro read frame by frame, as a drive goes (the same readings as [`gyro_rates`] over
+/// the same frames).
+#[derive(Clone, Debug)]
+pub struct Gyro {
+    config: GyroConfig,
+    rng: ChaCha8Rng,
+    bias_rad_s: Vector3<f64>,
+    /// The previous frame's time (seconds) and `world_from_rover`.
+    previous: Option<(f64, Isometry3<f64>)>,
+}
+
+impl Gyro {
+    /// A gyro whose bias direction and noise are drawn from `seed`.
+    pub fn new(config: &GyroConfig, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ GYRO_STREAM);
+        let bias_rad_s = random_direction(&mut rng) * config.bias_rad_s;
+        Self {
+            config: *config,
+            rng,
+            bias_rad_s,
+            previous: None,
+        }
+    }
+
+    /// The mean rate (rad/s, rover frame) since the previous reading, read at `time_s` with
+    /// the rover at `world_from_rover` (the first reading: the bias and noise alone).
+    pub fn read(&mut self, time_s: f64, world_from_rover: &Isometry3<f64>) -> Vector3<f64> {
+        let (rate, dt) = match self.previous {
+            Some((t0, world_from_prev)) if time_s > t0 => {
+                let dt = time_s - t0;
+                let prev_from_curr = world_from_prev.rotation.inverse() * world_from_rover.rotation;
+                (prev_from_curr.scaled_axis() / dt, dt)
+            }
+            _ => (Vector3::zeros(), 1.0),
+        };
+        self.previous = Some((time_s, *world_from_rover));
+        let sigma = self.config.noise_density_rad_s_sqrt_hz / dt.sqrt();
+        let rng = &mut self.rng;
+        let noise = Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)) * sigma;
+        rate + self.bias_rad_s + noise
+    }
 }
 
 /// A unit vector uniform on the sphere.

@@ -22,6 +22,8 @@ pub mod gyro;
 pub mod moon;
 pub mod render;
 pub mod rendered_boulders;
+pub mod rendered_odometry;
+pub mod rendered_sensors;
 pub mod rover;
 pub mod sensors;
 pub mod session;

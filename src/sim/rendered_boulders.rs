@@ -126,6 +126,11 @@ impl RenderedBoulders {
         out
     }
 
+    /// The renderer (shared with the image odometry).
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
     /// Every processed pair's score, in order.
     pub fn scores(&self) -> &[FrameScore] {
         &self.scores

@@ -7,9 +7,11 @@
 //! pitch taken from the IMU's gravity direction; collisions are checked against the true
 //! world. Once a second (every `frame_period_ticks`) the cameras observe
 //! ([`crate::sim::sensors`]): boulder detections, ground points and lander points, which
-//! also feed the navigator's obstacle memory. With [`SessionSim::with_rendered_boulders`]
+//! also feed the navigator's obstacle memory. With [`SessionSim::with_rendered_sensors`]
 //! the boulder detections come instead from the perception front end on rendered stereo
-//! pairs ([`crate::sim::rendered_boulders`]).
+//! pairs ([`crate::sim::rendered_boulders`]), and with image odometry set there the steps
+//! from the stereo visual odometry on the rendered front pair
+//! ([`crate::sim::rendered_odometry`]).
 //!
 //! # Frames
 //! - *world*: the moon's frame, lander at the origin (LAC's frame);
@@ -41,7 +43,7 @@ use crate::planning::Pose2;
 use crate::sim::ipex::{CX_PX, CY_PX, FOCAL_PX};
 use crate::sim::ipex::{LUNAR_GRAVITY_MPS2, TICK_S};
 use crate::sim::moon::Moon;
-use crate::sim::rendered_boulders::RenderedBoulders;
+use crate::sim::rendered_sensors::RenderedSensors;
 use crate::sim::rover::{Command, RoverState};
 use crate::sim::sensors::{cameras, observe, observe_far};
 use crate::sim::visual_odometry::{gravity_in_rover, VisualOdometry};
@@ -98,9 +100,9 @@ pub struct SessionSim<'a> {
     /// Rocks known beforehand, world frame: centre (x, y) and radius
     /// ([`SessionSim::set_known_rocks_world`]).
     known_rocks_world: Vec<(Point2<f64>, f64)>,
-    /// Boulders from rendered images instead of the sensor model, when set
-    /// ([`SessionSim::with_rendered_boulders`]).
-    rendered: Option<&'a mut RenderedBoulders>,
+    /// Boulders (and odometry, when set there) from rendered images instead of the sensor
+    /// models, when set ([`SessionSim::with_rendered_sensors`]).
+    rendered: Option<&'a mut RenderedSensors>,
     log: SessionLog,
     total_ticks: usize,
     wall: f64,
@@ -121,18 +123,18 @@ pub use crate::localizer::frame_log::roll_pitch_from_gravity;
 impl<'a> SessionSim<'a> {
     /// Set up a session on `moon` (tick 0 logged: the rover at its start, one camera frame).
     pub fn new(moon: &'a Moon, config: &SessionConfig, seed: u64) -> Result<Self, SessionError> {
-        Self::with_rendered_boulders(moon, config, seed, None)
+        Self::with_rendered_sensors(moon, config, seed, None)
     }
 
     /// [`SessionSim::new`], the boulders of every camera frame detected by `rendered` (its
-    /// front end on rendered stereo pairs) instead of the sensor model when given; ground
-    /// and lander points still come from the sensor model, which draws its random numbers
-    /// as without it.
-    pub fn with_rendered_boulders(
+    /// front end on rendered stereo pairs) instead of the sensor model when given, and the
+    /// odometry measured by its image odometry when it has one; ground and lander points
+    /// still come from the sensor model, which draws its random numbers as without it.
+    pub fn with_rendered_sensors(
         moon: &'a Moon,
         config: &SessionConfig,
         seed: u64,
-        rendered: Option<&'a mut RenderedBoulders>,
+        mut rendered: Option<&'a mut RenderedSensors>,
     ) -> Result<Self, SessionError> {
         config.validate()?;
         let started = Instant::now();
@@ -157,6 +159,10 @@ impl<'a> SessionSim<'a> {
             UnitQuaternion::from_euler_angles(roll, pitch, guess[2]),
         );
         let total_ticks = (config.duration_s / TICK_S).round() as usize;
+        if let Some(r) = rendered.as_deref_mut() {
+            r.begin_session(seed, 0.0, &world_from_rover)
+                .map_err(|e| SessionError::InvalidConfig(format!("image odometry: {e}")))?;
+        }
         let mut sim = Self {
             moon,
             config: config.clone(),
@@ -179,6 +185,7 @@ impl<'a> SessionSim<'a> {
                 frames: Vec::new(),
                 navigation_counts: (0, 0, 0),
                 wall_time_s: 0.0,
+                image_odometry: None,
             },
             total_ticks,
             wall: 0.0,
@@ -312,7 +319,7 @@ impl<'a> SessionSim<'a> {
         if let Some(rendered) = self.rendered.as_deref_mut() {
             let tick_index = self.log.ticks.len() - 1;
             obs.boulders =
-                rendered.observe(&tick.world_from_rover, tick_index, &self.config.sensors);
+                rendered.observe_boulders(&tick.world_from_rover, tick_index, &self.config.sensors);
         }
         let est = self.planner_from_session * tick.session_from_rover;
         self.planner_history.push(self.planner_from_session);
@@ -412,7 +419,11 @@ impl<'a> SessionSim<'a> {
         self.state.step(command, &self.config.rover, TICK_S);
         let world_from_rover = self.state.pose(self.moon);
         let true_step = prev.world_from_rover.inverse() * world_from_rover;
-        let vo_prev_from_cur = self.vo.measure(&true_step);
+        let from_images = self
+            .rendered
+            .as_deref_mut()
+            .and_then(|r| r.measure_step(k, time_s, &world_from_rover));
+        let vo_prev_from_cur = from_images.unwrap_or_else(|| self.vo.measure(&true_step));
         let gravity_rover = self.gravity_bias
             * gravity_in_rover(
                 &world_from_rover,
@@ -450,6 +461,7 @@ impl<'a> SessionSim<'a> {
     /// The finished log.
     pub fn finish(mut self) -> SessionLog {
         self.log.wall_time_s = self.wall;
+        self.log.image_odometry = self.rendered.as_ref().and_then(|r| r.odometry_stats());
         self.log
     }
 }

@@ -5,6 +5,7 @@
 
 use crate::planning::navigator::NavMode;
 use crate::sim::ipex::SITE_HALF_EXTENT_M;
+use crate::sim::rendered_odometry::ImageOdometryStats;
 use crate::sim::rover::Command;
 use crate::sim::sensors::{BoulderObservation, GroundObservation};
 use crate::sim::session::SessionConfig;
@@ -114,6 +115,8 @@ pub struct SessionLog {
     pub navigation_counts: (usize, usize, usize),
     /// Wall-clock seconds spent simulating.
     pub wall_time_s: f64,
+    /// What the odometry from images did (`None`: the drift model measured the steps).
+    pub image_odometry: Option<ImageOdometryStats>,
 }
 
 impl FrameRecord {

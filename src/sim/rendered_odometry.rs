@@ -1,0 +1,286 @@
+//! A session's odometry from pixels instead of the drift model
+//! ([`crate::sim::visual_odometry`]).
+//!
+//! Every `period_ticks` simulator ticks (10 Hz by default): render the front stereo pair
+//! from the true rover pose ([`Renderer`]) → read the gyro over the interval since the last
+//! pair ([`Gyro`]) → measure the left camera's motion with the stereo visual odometry
+//! ([`StereoOdometry`]) → move it to the rover frame. The ticks between two pairs move by a
+//! tick's share of the last measured motion (constant velocity, what the planner drives on);
+//! the tick of the next pair takes what is left, so that the odometry over a pair's
+//! interval is exactly the VO's.
+
+use crate::graph::StereoCalibration;
+use crate::sim::gyro::{Gyro, GyroConfig};
+use crate::sim::render::scoring::Quantiles;
+use crate::sim::render::{rover_from_front_left_optical, Renderer};
+use crate::vo::{StereoOdometry, VoConfig, VoError};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Noise keys of the odometry's renders start here, apart from the boulder pairs' keys.
+const NOISE_KEY_BASE: u64 = 1 << 40;
+
+/// Settings of the image odometry (TOML `[perception.image_odometry]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImageOdometryConfig {
+    /// A stereo pair every this many simulator ticks (20 Hz ticks: 2 is 10 Hz).
+    pub period_ticks: usize,
+    /// The stereo visual odometry.
+    pub vo: VoConfig,
+    /// The gyro the odometry reads.
+    pub gyro: GyroConfig,
+}
+
+impl Default for ImageOdometryConfig {
+    fn default() -> Self {
+        Self {
+            period_ticks: 2,
+            vo: VoConfig::default(),
+            gyro: GyroConfig::default(),
+        }
+    }
+}
+
+/// What the image odometry did in one session (the mission report's `image_odometry`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ImageOdometryStats {
+    /// A pair every this many simulator ticks.
+    pub period_ticks: usize,
+    /// Stereo pairs processed.
+    pub pairs: usize,
+    /// Pairs whose motion could not be estimated (the pose is the VO's prediction).
+    pub lost: usize,
+    /// Pairs whose rotation is the gyro's (the image motion failed or disagreed with it).
+    pub gyro_rotation: usize,
+    /// Features tracked from the previous pair, median.
+    pub tracked_median: f64,
+    /// Rendering one pair (both views), milliseconds.
+    pub render_ms: Quantiles,
+    /// The VO on one pair, milliseconds.
+    pub vo_ms: Quantiles,
+}
+
+/// One session's odometry state.
+struct SessionOdometry {
+    odometry: StereoOdometry,
+    gyro: Gyro,
+    /// `odom_from_rover` measured at the last pair.
+    odom_from_rover_at_pair: Isometry3<f64>,
+    /// The steps handed out since the last pair, composed.
+    since_pair: Isometry3<f64>,
+    /// A tick's share of the last pair's motion.
+    per_tick: Isometry3<f64>,
+    tracked: Vec<f64>,
+    render_ms: Vec<f64>,
+    vo_ms: Vec<f64>,
+    lost: usize,
+    gyro_rotation: usize,
+}
+
+/// The stereo VO on rendered pairs, one session at a time.
+pub struct RenderedOdometry {
+    config: ImageOdometryConfig,
+    camera: StereoCalibration,
+    rover_from_left: Isometry3<f64>,
+    /// Pairs rendered so far, all sessions (each pair's image noise is drawn from it).
+    pairs: u64,
+    session: Option<SessionOdometry>,
+}
+
+impl RenderedOdometry {
+    /// Odometry for the images of `renderer`; fails when the VO's configuration is invalid.
+    pub fn new(config: &ImageOdometryConfig, renderer: &Renderer) -> Result<Self, VoError> {
+        config.vo.validate()?;
+        let c = renderer.camera();
+        Ok(Self {
+            config: config.clone(),
+            camera: StereoCalibration {
+                fx: c.fx,
+                fy: c.fy,
+                skew: 0.0,
+                cx: c.cx,
+                cy: c.cy,
+                baseline_m: c.baseline_m,
+            },
+            rover_from_left: rover_from_front_left_optical(),
+            pairs: 0,
+            session: None,
+        })
+    }
+
+    /// Start a session at its first tick (time `time_s`, the rover truly at
+    /// `world_from_rover`); `seed` draws its gyro's bias and noise.
+    pub fn begin_session(
+        &mut self,
+        renderer: &Renderer,
+        seed: u64,
+        time_s: f64,
+        world_from_rover: &Isometry3<f64>,
+    ) -> Result<(), VoError> {
+        let mut odometry = StereoOdometry::new(self.camera, self.config.vo.clone())?;
+        odometry.set_gyro_mount(self.rover_from_left.rotation);
+        self.session = Some(SessionOdometry {
+            odometry,
+            gyro: Gyro::new(&self.config.gyro, seed),
+            odom_from_rover_at_pair: Isometry3::identity(),
+            since_pair: Isometry3::identity(),
+            per_tick: Isometry3::identity(),
+            tracked: Vec::new(),
+            render_ms: Vec::new(),
+            vo_ms: Vec::new(),
+            lost: 0,
+            gyro_rotation: 0,
+        });
+        self.process_pair(renderer, time_s, world_from_rover);
+        Ok(())
+    }
+
+    /// The measured step of tick `tick` (time `time_s`; the rover truly at
+    /// `world_from_rover`): `prev_from_cur` in the rover frame. Identity before
+    /// [`RenderedOdometry::begin_session`].
+    pub fn measure(
+        &mut self,
+        renderer: &Renderer,
+        tick: usize,
+        time_s: f64,
+        world_from_rover: &Isometry3<f64>,
+    ) -> Isometry3<f64> {
+        let period = self.config.period_ticks.max(1);
+        if !tick.is_multiple_of(period) {
+            return match self.session.as_mut() {
+                Some(s) => {
+                    s.since_pair *= s.per_tick;
+                    s.per_tick
+                }
+                None => Isometry3::identity(),
+            };
+        }
+        let Some(odom_from_rover) = self.process_pair(renderer, time_s, world_from_rover) else {
+            return Isometry3::identity();
+        };
+        let Some(s) = self.session.as_mut() else {
+            return Isometry3::identity();
+        };
+        let motion = s.odom_from_rover_at_pair.inverse() * odom_from_rover;
+        let step = s.since_pair.inverse() * motion;
+        s.per_tick = share(&motion, period);
+        s.since_pair = Isometry3::identity();
+        s.odom_from_rover_at_pair = odom_from_rover;
+        step
+    }
+
+    /// Render the pair at `world_from_rover`, run the VO on it; the rover's new
+    /// `odom_from_rover` (`None` without a session).
+    fn process_pair(
+        &mut self,
+        renderer: &Renderer,
+        time_s: f64,
+        world_from_rover: &Isometry3<f64>,
+    ) -> Option<Isometry3<f64>> {
+        let s = self.session.as_mut()?;
+        let world_from_left = world_from_rover * self.rover_from_left;
+        let world_from_right =
+            world_from_left * Translation3::new(self.camera.baseline_m, 0.0, 0.0);
+        let key = NOISE_KEY_BASE + 2 * self.pairs;
+        self.pairs += 1;
+        let started = Instant::now();
+        let (left, right) = rayon::join(
+            || renderer.render_view(&world_from_left, key),
+            || renderer.render_view(&world_from_right, key + 1),
+        );
+        s.render_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        let rate = s.gyro.read(time_s, world_from_rover);
+        let result = s
+            .odometry
+            .process_with_gyro(&left.image, &right.image, time_s, Some(rate));
+        s.vo_ms.push(result.time_ms);
+        s.tracked.push(result.tracked as f64);
+        s.lost += usize::from(result.lost);
+        s.gyro_rotation += usize::from(result.gyro_rotation);
+        Some(self.rover_from_left * result.pose * self.rover_from_left.inverse())
+    }
+
+    /// The current session's figures (`None` before the first session).
+    pub fn session_stats(&self) -> Option<ImageOdometryStats> {
+        let s = self.session.as_ref()?;
+        Some(ImageOdometryStats {
+            period_ticks: self.config.period_ticks,
+            pairs: s.vo_ms.len(),
+            lost: s.lost,
+            gyro_rotation: s.gyro_rotation,
+            tracked_median: Quantiles::of(&s.tracked).median,
+            render_ms: Quantiles::of(&s.render_ms),
+            vo_ms: Quantiles::of(&s.vo_ms),
+        })
+    }
+}
+
+/// `motion` split into `n` equal steps: one of them (the rotation about the same axis by an
+/// `n`-th of the angle, an `n`-th of the translation).
+fn share(motion: &Isometry3<f64>, n: usize) -> Isometry3<f64> {
+    let n = n.max(1) as f64;
+    Isometry3::from_parts(
+        Translation3::from(motion.translation.vector / n),
+        UnitQuaternion::from_scaled_axis(motion.rotation.scaled_axis() / n),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::moon::{Moon, MoonConfig};
+    use crate::sim::render::RenderConfig;
+    use crate::sim::rover::RoverState;
+
+    #[test]
+    fn the_steps_between_two_pairs_compose_to_the_vo_motion() {
+        let motion = Isometry3::from_parts(
+            Translation3::new(0.04, 0.002, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, 0.01),
+        );
+        let half = share(&motion, 2);
+        let rest = half.inverse() * motion;
+        assert!(((half * rest).inverse() * motion).translation.vector.norm() < 1e-15);
+        assert!((half.rotation.angle() - 0.005).abs() < 1e-12);
+        assert!((half.translation.vector.x - 0.02).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_straight_drive_is_measured_from_the_rendered_pairs() {
+        let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
+        let render = RenderConfig {
+            resolution_scale: 0.5,
+            ..RenderConfig::default()
+        };
+        let renderer = Renderer::new(&moon, &render, 4).unwrap();
+        let mut odometry =
+            RenderedOdometry::new(&ImageOdometryConfig::default(), &renderer).unwrap();
+        let (x, y) = moon.nearest_clear_position(5.0, 3.0, 1.0, 0.08);
+        let pose_at = |d: f64| RoverState::at_rest(x + d, y, 0.0).pose(&moon);
+        odometry
+            .begin_session(&renderer, 9, 0.0, &pose_at(0.0))
+            .unwrap();
+        // 0.4 m/s at 20 Hz: 2 cm a tick, a pair every other tick
+        let mut session_from_rover = Isometry3::identity();
+        for tick in 1..=20 {
+            let step = odometry.measure(
+                &renderer,
+                tick,
+                tick as f64 * 0.05,
+                &pose_at(0.02 * tick as f64),
+            );
+            session_from_rover *= step;
+        }
+        let truth = pose_at(0.0).inverse() * pose_at(0.4);
+        let error = (truth.inverse() * session_from_rover)
+            .translation
+            .vector
+            .norm();
+        assert!(error < 0.01, "{error} m off over 0.4 m");
+        let stats = odometry.session_stats().unwrap();
+        assert_eq!(stats.pairs, 11);
+        assert_eq!(stats.lost, 0);
+    }
+}
