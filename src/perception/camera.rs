@@ -57,6 +57,18 @@ impl StereoCamera {
         }
     }
 
+    /// The pinhole model the stereo factors and the visual odometry use (no skew).
+    pub fn calibration(&self) -> crate::graph::StereoCalibration {
+        crate::graph::StereoCalibration {
+            fx: self.fx,
+            fy: self.fy,
+            skew: 0.0,
+            cx: self.cx,
+            cy: self.cy,
+            baseline_m: self.baseline_m,
+        }
+    }
+
     /// This camera for images of `width × height`: the same camera scaled, if the size is a
     /// uniform scaling of this one (so `ipex().for_size(640, 360)` is the IPEX camera at half
     /// resolution); otherwise an error naming both sizes.

@@ -93,17 +93,9 @@ impl RenderedOdometry {
     /// Odometry for the images of `renderer`; fails when the VO's configuration is invalid.
     pub fn new(config: &ImageOdometryConfig, renderer: &Renderer) -> Result<Self, VoError> {
         config.vo.validate()?;
-        let c = renderer.camera();
         Ok(Self {
             config: config.clone(),
-            camera: StereoCalibration {
-                fx: c.fx,
-                fy: c.fy,
-                skew: 0.0,
-                cx: c.cx,
-                cy: c.cy,
-                baseline_m: c.baseline_m,
-            },
+            camera: renderer.camera().calibration(),
             rover_from_left: rover_from_front_left_optical(),
             pairs: 0,
             session: None,
