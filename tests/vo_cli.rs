@@ -250,7 +250,17 @@ fn one_and_two_threads_give_identical_poses() {
     let dir = tempfile::tempdir().unwrap();
     let frames = dir.path().join("frames");
     let out = common::segloc()
-        .args(["sim", "render", "--seed", "3", "--seconds", "3", "--every", "2", "--half"])
+        .args([
+            "sim",
+            "render",
+            "--seed",
+            "3",
+            "--seconds",
+            "3",
+            "--every",
+            "2",
+            "--half",
+        ])
         .arg("-o")
         .arg(&frames)
         .output()

@@ -6,8 +6,8 @@
 use clap::Args;
 use segloc::graph::file::write_atomic;
 use segloc::vo::{
-    run_sequence, segment_drift, tum, FrameResult, SegmentDrift, StageTimes, StereoSequence, VoConfig,
-    VoError,
+    run_sequence, segment_drift, tum, FrameResult, SegmentDrift, StageTimes, StereoSequence,
+    VoConfig, VoError,
 };
 use serde::Serialize;
 use std::path::PathBuf;

@@ -23,6 +23,7 @@ use super::VoError;
 use crate::graph::StereoCalibration;
 use crate::perception::GrayImage;
 use nalgebra::{Isometry3, Matrix6, Point3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -249,13 +250,13 @@ impl StereoOdometry {
         let mut stages = StageTimes::default();
         let predicted = self.predicted_motion(time_s, gyro_rover_rad_s);
         self.previous_time_s = Some(time_s);
-        let pyramid = Pyramid::new(left, self.config.pyramid_levels);
-        let right = FloatImage::from_gray(right);
+        let (pyramid, right) = rayon::join(
+            || Pyramid::new(left, self.config.pyramid_levels),
+            || FloatImage::from_gray(right),
+        );
         stages.pyramid_ms = lap_ms(&mut lap);
         let (tracked, estimate) = match self.previous.take() {
-            Some(prev) => {
-                self.track_and_estimate(&prev, &pyramid, &right, &predicted, &mut stages)
-            }
+            Some(prev) => self.track_and_estimate(&prev, &pyramid, &right, &predicted, &mut stages),
             None => (0, None),
         };
         let lost = self.frame_index > 0 && estimate.is_none();
@@ -397,11 +398,16 @@ impl StereoOdometry {
             .collect();
         let moved = track(prev, curr, &points, &predicted, &self.config.klt);
         stages.track_ms = lap_ms(&mut lap);
+        let stereo = &self.config.stereo;
+        let disparities: Vec<Option<f32>> = moved
+            .par_iter()
+            .with_min_len(8)
+            .map(|m| m.and_then(|(x, y)| match_point(curr.base(), right, x, y, stereo)))
+            .collect();
         let mut kept = Vec::new();
         let mut correspondences = Vec::new();
-        for (f, m) in self.features.iter().zip(moved) {
+        for ((f, m), disparity) in self.features.iter().zip(moved).zip(disparities) {
             let Some((x, y)) = m else { continue };
-            let disparity = match_point(curr.base(), right, x, y, &self.config.stereo);
             let u_right = disparity.map_or(f64::NAN, |d| (x - d) as f64);
             correspondences.push(Correspondence {
                 p_prev: f.p_camera,
@@ -450,8 +456,14 @@ impl StereoOdometry {
         }
         let corners = detect_corners(base, &self.config.corners, &occupied);
         stages.corners_ms = lap_ms(&mut lap);
-        for (x, y) in corners {
-            let Some(d) = match_point(base, right, x, y, &self.config.stereo) else {
+        let stereo = &self.config.stereo;
+        let matched: Vec<Option<f32>> = corners
+            .par_iter()
+            .with_min_len(8)
+            .map(|&(x, y)| match_point(base, right, x, y, stereo))
+            .collect();
+        for ((x, y), disparity) in corners.into_iter().zip(matched) {
+            let Some(d) = disparity else {
                 continue;
             };
             let uv = Vector3::new(x as f64, (x - d) as f64, y as f64);
