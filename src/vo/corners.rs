@@ -126,9 +126,9 @@ fn strongest_in(
         let down = &image.data[i + w..][..gw];
         let gradient = |k: usize| (0.5 * (right[k] - left[k]), 0.5 * (down[k] - up[k]));
         let [xx, xy, yy] = &mut scratch.products;
-        xx.extend((0..gw).map(|k| gradient(k)).map(|(gx, _)| gx * gx));
-        xy.extend((0..gw).map(|k| gradient(k)).map(|(gx, gy)| gx * gy));
-        yy.extend((0..gw).map(|k| gradient(k)).map(|(_, gy)| gy * gy));
+        xx.extend((0..gw).map(gradient).map(|(gx, _)| gx * gx));
+        xy.extend((0..gw).map(gradient).map(|(gx, gy)| gx * gy));
+        yy.extend((0..gw).map(gradient).map(|(_, gy)| gy * gy));
     }
     // horizontal sums of 5, per row of the margin-extended cell
     let cw = xs.1 - xs.0;
