@@ -7,19 +7,20 @@
 # KITTI frames and from seeds 11-13 of the synthetic moon).
 #
 # Usage: scripts/bench_vo_rendered.sh [--quick] [--print] [--runs DIR] [--low-sun SEED|none]
-#                                     [FIRST LAST [SECONDS]]
+#                                     [--threads N] [FIRST LAST [SECONDS]]
 #   defaults: seeds 1-10, 300 s, sun elevation 15° and a 5° run of the first seed (--low-sun);
-#   quick: seed 1, 20 s. Each seed's JSON is kept in --runs DIR (default
+#   quick: seed 1, 20 s; threads: RAYON_NUM_THREADS of the odometry (default 2). Each seed's JSON is kept in --runs DIR (default
 #   target/bench-vo-rendered) and reused when present, so a long run can be resumed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-first=1 last=10 seconds=300 print=0 runs="" low_sun="" args=()
+first=1 last=10 seconds=300 print=0 runs="" low_sun="" threads=2 args=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) last=1 seconds=20 ;;
     --print) print=1 ;;
     --runs) runs="$2"; shift ;;
     --low-sun) low_sun="$2"; shift ;;
+    --threads) threads="$2"; shift ;;
     *) args+=("$1") ;;
   esac
   shift
@@ -31,26 +32,26 @@ segloc_bin
 runs="${runs:-$target/bench-vo-rendered}"
 mkdir -p "$runs"
 one() {  # seed sun_elevation
-  local out="$runs/vo-s$1-e$2-t$seconds.json"
+  local out="$runs/vo-s$1-e$2-t$seconds-j$threads.json"
   [[ -s "$out" ]] && return
   local dir="$runs/render-s$1"
   rm -rf "$dir"
   "$bin" sim render --seed "$1" --seconds "$seconds" --every 2 --sun-elevation "$2" -o "$dir" > /dev/null
-  RAYON_NUM_THREADS=1 "$bin" eval vo --images "$dir" --json > "$out.tmp"
+  RAYON_NUM_THREADS=$threads "$bin" eval vo --images "$dir" --json > "$out.tmp"
   mv "$out.tmp" "$out"
   rm -rf "$dir"
 }
 for s in $(seq "$first" "$last"); do one "$s" 15; done
 low_sun="${low_sun:-$first}"
 [[ $low_sun != none ]] && one "$low_sun" 5
-section=$(python3 - "$runs" "$first" "$last" "$seconds" "$low_sun" <<'PY'
+section=$(python3 - "$runs" "$first" "$last" "$seconds" "$low_sun" "$threads" <<'PY'
 import json, sys, datetime, subprocess, os
-d, first, last, seconds, low_sun = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
+d, first, last, seconds, low_sun, threads = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5], sys.argv[6]
 sh = lambda c: subprocess.run(["sh", "-c", c], capture_output=True, text=True).stdout.strip()
 commit = sh("git rev-parse --short HEAD")
 date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
 def row(s, e):
-    v = json.load(open(f"{d}/vo-s{s}-e{e}-t{seconds}.json"))
+    v = json.load(open(f"{d}/vo-s{s}-e{e}-t{seconds}-j{threads}.json"))
     g = v.get("drift_10m") or {}
     drift = (f"{g['translation_percent']:.2f} % / {g['translation_percent_p90']:.2f} % | {g['rotation_deg_per_10m']:.3f}°"
              if g else "— | —")
@@ -70,15 +71,18 @@ ms = [v["per_frame_ms"]["median"] for v in main]
 summary = (f"Over seeds {first}–{last} at 15°: translation drift median {med(tr):.2f} %, p90 {p90(tr):.2f} %; rotation median "
            f"{med(ro):.3f}° per 10 m, p90 {p90(ro):.3f}°; lost frames {sum(v['lost_frames'] for v in main)} of "
            f"{sum(v['frames'] for v in main)}; time median of the seeds' medians {med(ms):.0f} ms a frame." if tr else "")
+stages = main[0].get("stage_ms_median") or {}
+stages = "Median ms per stage (seeds' medians): " + ", ".join(
+    f"{k[:-3]} {med([v['stage_ms_median'][k] for v in main]):.1f}" for k in stages) if stages else ""
 print("\n".join([
     "## Stereo visual odometry on rendered drives (issue 27)", "",
     f"`scripts/bench_vo_rendered.sh {first} {last} {seconds}` — {date}, commit `{commit}`, AMD EPYC, 2 cores shared "
     f"(load average {os.getloadavg()[0]:.1f}); `segloc sim render --seed S --seconds {seconds} --every 2 --sun-elevation E` "
-    "(10 Hz, 1280 × 720) then `segloc eval vo --images DIR`, one thread, default `VoConfig`. Held out: seeds 1–10 "
+    f"(10 Hz, 1280 × 720) then `RAYON_NUM_THREADS={threads} segloc eval vo --images DIR`, default `VoConfig`. Held out: seeds 1–10 "
     "(tuned on KITTI and seeds 11–13). Drift: KITTI's metric over 10 m segments, mean / p90 over the segments.", "",
     "| seed | sun | distance (m) | translation drift mean / p90 | rotation per 10 m | end point | lost | tracked (median) | ms a frame median / p99 |",
     "|---|---|---|---|---|---|---|---|---|",
-    *[r for _, r in runs], "", summary, "",
+    *[r for _, r in runs], "", summary, stages, "",
     "Targets: ≤ 1 % over 10 m (median over seeds), ≤ 0.1° per 10 m, no frame lost, ≤ 40 ms a frame on 2 cores.",
 ]))
 PY

@@ -6,7 +6,8 @@
 use clap::Args;
 use segloc::graph::file::write_atomic;
 use segloc::vo::{
-    run_sequence, segment_drift, tum, FrameResult, SegmentDrift, StereoSequence, VoConfig, VoError,
+    run_sequence, segment_drift, tum, FrameResult, SegmentDrift, StageTimes, StereoSequence,
+    VoConfig, VoError,
 };
 use serde::Serialize;
 use std::path::PathBuf;
@@ -116,6 +117,8 @@ struct VoOutput<'a> {
     gyro_rotation_frames: usize,
     keyframes: usize,
     per_frame_ms: Timing,
+    /// Median time of each stage over the frames, milliseconds.
+    stage_ms_median: StageTimes,
     config: &'a VoConfig,
 }
 
@@ -167,8 +170,36 @@ fn summary<'a>(results: &[FrameResult], config: &'a VoConfig) -> VoOutput<'a> {
             p99: percentile(&ms, 0.99),
             max: ms.last().copied().unwrap_or(0.0),
         },
+        stage_ms_median: stage_medians(results),
         config,
     }
+}
+
+/// The median of each stage's time over the frames.
+fn stage_medians(results: &[FrameResult]) -> StageTimes {
+    let median = |f: fn(&StageTimes) -> f64| {
+        let mut v: Vec<f64> = results.iter().map(|r| f(&r.stages)).collect();
+        v.sort_by(f64::total_cmp);
+        percentile(&v, 0.5)
+    };
+    StageTimes {
+        pyramid_ms: median(|s| s.pyramid_ms),
+        track_ms: median(|s| s.track_ms),
+        stereo_ms: median(|s| s.stereo_ms),
+        motion_ms: median(|s| s.motion_ms),
+        corners_ms: median(|s| s.corners_ms),
+        window_ms: median(|s| s.window_ms),
+    }
+}
+
+/// One line of the stages' median times.
+fn stage_line(stages: &StageTimes) -> String {
+    let parts: Vec<String> = stages
+        .named()
+        .iter()
+        .map(|(name, ms)| format!("{name} {ms:.1}"))
+        .collect();
+    format!("median ms per stage: {}", parts.join(", "))
 }
 
 /// Bad input is exit 2 with the message; other failures propagate.
@@ -202,6 +233,7 @@ pub fn run(a: &VoArgs) -> anyhow::Result<i32> {
             super::print_json(&out)?;
         } else {
             println!("{} frames, {} lost, median {:.0} tracked, {:.1} ms per frame (median), {:.1} ms p99 -> {}", out.frames, out.lost_frames, out.tracked_features, out.per_frame_ms.median, out.per_frame_ms.p99, a.output.display());
+            println!("{}", stage_line(&out.stage_ms_median));
         }
         Ok(())
     })())
@@ -267,6 +299,7 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
                 "{} frames over {:.2} m: end-point translation error {:.3} m ({:.2} %), rotation error {:.3}°; {:.1} ms per frame median, {:.1} ms p99, {} lost",
                 out.vo.frames, out.distance_m, out.translation_error_m, out.translation_error_percent, out.rotation_error_deg, out.vo.per_frame_ms.median, out.vo.per_frame_ms.p99, out.vo.lost_frames
             );
+            println!("{}", stage_line(&out.vo.stage_ms_median));
             if let Some(d) = &out.drift_10m {
                 println!(
                     "over {} segments of 10 m: translation drift {:.2} % (p90 {:.2} %), rotation {:.3}° per 10 m",

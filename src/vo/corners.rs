@@ -1,6 +1,7 @@
 //! Shi–Tomasi corners with good spread: the strongest corner of every empty cell of a grid.
 
 use super::pyramid::FloatImage;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Corner detection settings.
@@ -42,30 +43,47 @@ pub fn detect_corners(
     if w <= 2 * b || h <= 2 * b {
         return Vec::new();
     }
+    // rows of cells in parallel (rayon), concatenated in order: the same corners for any
+    // number of threads
+    let per_row: Vec<Vec<(f32, f32)>> = (0..rows)
+        .into_par_iter()
+        .map(|cy| {
+            let free = |cx: usize| !occupied.get(cy * cols + cx).copied().unwrap_or(false);
+            row_corners(image, config, (cols, rows), cy, free)
+        })
+        .collect();
+    per_row.concat()
+}
+
+/// The corners of the free cells (`free(cx)`) of the row of cells `cy`, left to right.
+fn row_corners(
+    image: &FloatImage,
+    config: &CornerConfig,
+    (cols, rows): (usize, usize),
+    cy: usize,
+    free: impl Fn(usize) -> bool,
+) -> Vec<(f32, f32)> {
+    let (w, h) = (image.width, image.height);
+    let b = config.border_px.max(3);
     let cell = config.cell_px.max(1);
+    let last = |c: usize, n: usize| {
+        if c + 1 == n {
+            usize::MAX
+        } else {
+            (c + 1) * cell
+        }
+    };
     let mut scratch = CellScratch::default();
     let mut corners = Vec::new();
-    for cy in 0..rows {
-        for cx in 0..cols {
-            if occupied.get(cy * cols + cx).copied().unwrap_or(false) {
-                continue;
-            }
-            let last = |c: usize, n: usize| {
-                if c + 1 == n {
-                    usize::MAX
-                } else {
-                    (c + 1) * cell
-                }
-            };
-            let (x0, x1) = ((cx * cell).max(b), last(cx, cols).min(w - b));
-            let (y0, y1) = ((cy * cell).max(b), last(cy, rows).min(h - b));
-            if x0 >= x1 || y0 >= y1 {
-                continue;
-            }
-            let (response, x, y) = strongest_in(image, (x0, x1), (y0, y1), &mut scratch);
-            if response >= config.min_response && response > 0.0 {
-                corners.push((x as f32, y as f32));
-            }
+    for cx in (0..cols).filter(|&cx| free(cx)) {
+        let (x0, x1) = ((cx * cell).max(b), last(cx, cols).min(w - b));
+        let (y0, y1) = ((cy * cell).max(b), last(cy, rows).min(h - b));
+        if x0 >= x1 || y0 >= y1 {
+            continue;
+        }
+        let (response, x, y) = strongest_in(image, (x0, x1), (y0, y1), &mut scratch);
+        if response >= config.min_response && response > 0.0 {
+            corners.push((x as f32, y as f32));
         }
     }
     corners
@@ -76,11 +94,17 @@ pub fn detect_corners(
 struct CellScratch {
     products: [Vec<f32>; 3],
     rows: [Vec<f32>; 3],
+    columns: [Vec<f32>; 3],
+    response: Vec<f32>,
 }
 
 /// The strongest Shi–Tomasi response over pixels `xs.0..xs.1` × `ys.0..ys.1` (5 × 5 windows
 /// of the central-difference gradients' products) and where it is; the first of equals in
 /// row-major order, `(0, _, _)` when none is positive.
+///
+/// Every stage runs a whole row of the cell at a time over contiguous slices (vectorised);
+/// each sum adds its five terms left to right or top to bottom, as a pixel-by-pixel loop
+/// does, so the responses are the same to the bit.
 fn strongest_in(
     image: &FloatImage,
     xs: (usize, usize),
@@ -95,41 +119,43 @@ fn strongest_in(
         p.clear();
     }
     for y in gy0..gy0 + gh {
-        for x in gx0..gx0 + gw {
-            let i = y * w + x;
-            let gx = 0.5 * (image.data[i + 1] - image.data[i - 1]);
-            let gy = 0.5 * (image.data[i + w] - image.data[i - w]);
-            scratch.products[0].push(gx * gx);
-            scratch.products[1].push(gx * gy);
-            scratch.products[2].push(gy * gy);
-        }
+        let i = y * w + gx0;
+        let left = &image.data[i - 1..][..gw];
+        let right = &image.data[i + 1..][..gw];
+        let up = &image.data[i - w..][..gw];
+        let down = &image.data[i + w..][..gw];
+        let gradient = |k: usize| (0.5 * (right[k] - left[k]), 0.5 * (down[k] - up[k]));
+        let [xx, xy, yy] = &mut scratch.products;
+        xx.extend((0..gw).map(gradient).map(|(gx, _)| gx * gx));
+        xy.extend((0..gw).map(gradient).map(|(gx, gy)| gx * gy));
+        yy.extend((0..gw).map(gradient).map(|(_, gy)| gy * gy));
     }
     // horizontal sums of 5, per row of the margin-extended cell
     let cw = xs.1 - xs.0;
     for (row_sums, g) in scratch.rows.iter_mut().zip(&scratch.products) {
         row_sums.clear();
-        for r in 0..gh {
-            let row = &g[r * gw..(r + 1) * gw];
-            for x in 2..2 + cw {
-                row_sums.push(row[x - 2] + row[x - 1] + row[x] + row[x + 1] + row[x + 2]);
-            }
+        for row in g.chunks_exact(gw) {
+            row_sums.extend(row.windows(5).map(|v| v[0] + v[1] + v[2] + v[3] + v[4]));
         }
     }
     let mut best = (0.0f32, 0usize, 0usize);
     for y in ys.0..ys.1 {
         let r = y - gy0;
-        for x in xs.0..xs.1 {
-            let c = x - xs.0;
-            let sum = |s: &[f32]| (r - 2..=r + 2).map(|rr| s[rr * cw + c]).sum::<f32>();
-            let (a, m, d) = (
-                sum(&scratch.rows[0]),
-                sum(&scratch.rows[1]),
-                sum(&scratch.rows[2]),
-            );
-            let response = 0.5 * (a + d) - (0.25 * (a - d) * (a - d) + m * m).sqrt();
-            let response = response / 25.0;
-            if response > best.0 {
-                best = (response, x, y);
+        for (column, sums) in scratch.columns.iter_mut().zip(&scratch.rows) {
+            let row = |k: usize| &sums[(r - 2 + k) * cw..][..cw];
+            let (r0, r1, r2, r3, r4) = (row(0), row(1), row(2), row(3), row(4));
+            column.clear();
+            column.extend((0..cw).map(|c| r0[c] + r1[c] + r2[c] + r3[c] + r4[c]));
+        }
+        let [a, m, d] = &scratch.columns;
+        scratch.response.clear();
+        scratch.response.extend((0..cw).map(|c| {
+            let (a, m, d) = (a[c], m[c], d[c]);
+            (0.5 * (a + d) - (0.25 * (a - d) * (a - d) + m * m).sqrt()) / 25.0
+        }));
+        for (c, &v) in scratch.response.iter().enumerate() {
+            if v > best.0 {
+                best = (v, xs.0 + c, y);
             }
         }
     }

@@ -1,6 +1,7 @@
 //! Pyramidal Lucas–Kanade tracking (Bouguet's formulation) with a forward–backward check.
 
 use super::pyramid::{FloatImage, Pyramid};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Tracking settings.
@@ -141,7 +142,8 @@ fn track_level(
 /// `predicted` holds, per point, where the motion prior expects it in `to` (or `None`):
 /// the search starts there and falls back to the point's own position when that fails,
 /// so a steady turn of tens of pixels a frame stays within the pyramid's reach while a
-/// sudden stop is still found.
+/// sudden stop is still found. Points are tracked in parallel (rayon); each point's result
+/// depends on it alone, so any number of threads gives the same tracks.
 pub fn track(
     from: &Pyramid,
     to: &Pyramid,
@@ -150,8 +152,9 @@ pub fn track(
     config: &KltConfig,
 ) -> Vec<Option<(f32, f32)>> {
     points
-        .iter()
+        .par_iter()
         .enumerate()
+        .with_min_len(8)
         .map(|(i, &p)| {
             let guess = predicted.get(i).copied().flatten();
             guess

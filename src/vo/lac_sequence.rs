@@ -40,26 +40,25 @@ impl StereoSequence {
         };
         let frames: Vec<SequenceFrame> = numbers
             .iter()
-            .map(|&frame| SequenceFrame {
-                time_s: recording
-                    .frame(frame)
-                    .and_then(|f| f.time_s)
-                    .unwrap_or(frame as f64 * LAC_FRAME_S),
-                images: FrameImages::Lac {
-                    recording: Arc::clone(&recording),
-                    frame,
-                },
-                // the accelerometer of a resting rover reads minus gravity
-                gravity_rover: recording
-                    .frame(frame)
-                    .and_then(|f| f.imu.as_ref())
-                    .map(|imu| -Vector3::from(imu.accel))
-                    .filter(|g| g.iter().all(|v| v.is_finite()) && g.norm() > 0.0),
-                gyro_rover_rad_s: recording
-                    .frame(frame)
-                    .and_then(|f| f.imu.as_ref())
-                    .map(|imu| Vector3::from(imu.gyro))
-                    .filter(|w| w.iter().all(|v| v.is_finite())),
+            .map(|&frame| {
+                let record = recording.frame(frame);
+                let imu = record.and_then(|f| f.imu.as_ref());
+                SequenceFrame {
+                    time_s: record
+                        .and_then(|f| f.time_s)
+                        .unwrap_or(frame as f64 * LAC_FRAME_S),
+                    images: FrameImages::Lac {
+                        recording: Arc::clone(&recording),
+                        frame,
+                    },
+                    // the accelerometer of a resting rover reads minus gravity
+                    gravity_rover: imu
+                        .map(|imu| -Vector3::from(imu.accel))
+                        .filter(|g| g.iter().all(|v| v.is_finite()) && g.norm() > 0.0),
+                    gyro_rover_rad_s: imu
+                        .map(|imu| Vector3::from(imu.gyro))
+                        .filter(|w| w.iter().all(|v| v.is_finite())),
+                }
             })
             .collect();
         check_times(&frames, path)?;

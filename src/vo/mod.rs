@@ -22,6 +22,7 @@ pub mod pyramid;
 pub mod rendered_sequence;
 pub mod segment_drift;
 pub mod sequence;
+pub mod stage_times;
 pub mod stereo_match;
 pub mod translation_given_rotation;
 pub mod tum;
@@ -31,6 +32,7 @@ pub use error::VoError;
 pub use odometry::{FrameResult, StereoOdometry, VoConfig};
 pub use segment_drift::{segment_drift, SegmentDrift};
 pub use sequence::{FrameImages, ImuSample, SequenceFrame, StereoSequence};
+pub use stage_times::StageTimes;
 
 /// Runs the odometry over a sequence, checking that every image has the size of the first.
 /// Each frame's `time_ms` is the odometry's own: reading and decoding the images (PNG files,

@@ -7,6 +7,7 @@ use crate::graph::{se3, StereoCalibration};
 use nalgebra::{
     Isometry3, Matrix3, Matrix6, Point3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Motion estimation settings.
@@ -95,6 +96,32 @@ fn kabsch(a: &[Point3<f64>; 3], b: &[Point3<f64>; 3]) -> Option<Isometry3<f64>> 
     Some(Isometry3::from_parts(Translation3::from(t), rotation))
 }
 
+/// One RANSAC hypothesis from the candidates `idx` (indices into `candidates`): its
+/// inlier count and motion, `None` for a degenerate sample.
+fn hypothesis(
+    camera: &StereoCalibration,
+    cs: &[Correspondence],
+    candidates: &[usize],
+    idx: &[usize; 3],
+    inlier_px: f64,
+) -> Option<(usize, Isometry3<f64>)> {
+    if idx[0] == idx[1] || idx[1] == idx[2] || idx[0] == idx[2] {
+        return None;
+    }
+    let pick = idx.map(|k| cs[candidates[k]]);
+    let a = pick.map(|c| c.p_prev);
+    let b = [0, 1, 2]
+        .iter()
+        .map(|&k| camera.backproject(&pick[k].uv).map(Point3::from))
+        .collect::<Option<Vec<_>>>()?;
+    let t = kabsch(&a, &[b[0], b[1], b[2]])?;
+    let count = cs
+        .iter()
+        .filter(|c| residual(camera, &t, c).is_some_and(|(e, _)| e.amax() <= inlier_px))
+        .count();
+    Some((count, t))
+}
+
 pub(super) fn inliers_of(
     camera: &StereoCalibration,
     t: &Isometry3<f64>,
@@ -127,32 +154,29 @@ pub fn estimate_motion(
         (state % n as u64) as usize
     };
     if candidates.len() >= 3 {
-        for _ in 0..config.ransac_iterations {
-            let idx = [
-                next(candidates.len()),
-                next(candidates.len()),
-                next(candidates.len()),
-            ];
-            if idx[0] == idx[1] || idx[1] == idx[2] || idx[0] == idx[2] {
-                continue;
-            }
-            let pick = idx.map(|k| cs[candidates[k]]);
-            let a = pick.map(|c| c.p_prev);
-            let Some(b) = [0, 1, 2]
-                .iter()
-                .map(|&k| camera.backproject(&pick[k].uv).map(Point3::from))
-                .collect::<Option<Vec<_>>>()
-            else {
-                continue;
-            };
-            let Some(t) = kabsch(&a, &[b[0], b[1], b[2]]) else {
-                continue;
-            };
-            let inl = inliers_of(camera, &t, cs, config.inlier_px);
-            let count = inl.iter().filter(|&&b| b).count();
+        // the samples are drawn in order, the hypotheses scored in parallel (rayon) and the
+        // first of the best kept: the same winner for any number of threads
+        let samples: Vec<[usize; 3]> = (0..config.ransac_iterations)
+            .map(|_| {
+                [
+                    next(candidates.len()),
+                    next(candidates.len()),
+                    next(candidates.len()),
+                ]
+            })
+            .collect();
+        let scored: Vec<Option<(usize, Isometry3<f64>)>> = samples
+            .par_iter()
+            .map(|idx| hypothesis(camera, cs, &candidates, idx, config.inlier_px))
+            .collect();
+        let mut winner = None;
+        for (count, t) in scored.into_iter().flatten() {
             if count > best_count {
-                (best, best_count, best_t) = (inl, count, t);
+                (best_count, best_t, winner) = (count, t, Some(t));
             }
+        }
+        if let Some(t) = winner {
+            best = inliers_of(camera, &t, cs, config.inlier_px);
         }
     }
     if best_count < 6 {

@@ -15,6 +15,7 @@ use super::motion::{
     estimate_motion, rotation_sigma_rad, Correspondence, MotionConfig, MotionEstimate,
 };
 use super::pyramid::{FloatImage, Pyramid};
+use super::stage_times::{lap_ms, StageTimes};
 use super::stereo_match::{match_point, StereoMatchConfig};
 use super::translation_given_rotation::translation_given_rotation;
 use super::window::{SlidingWindow, WindowConfig};
@@ -22,6 +23,7 @@ use super::VoError;
 use crate::graph::StereoCalibration;
 use crate::perception::GrayImage;
 use nalgebra::{Isometry3, Matrix6, Point3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -119,8 +121,16 @@ impl VoConfig {
     }
 }
 
-/// A frame's motion: `curr_from_prev`, the inlier count and the refinement's `JᵀJ`.
-type Motion = (Isometry3<f64>, usize, Matrix6<f64>);
+/// A frame's motion as stages 1–3 found it.
+struct Motion {
+    curr_from_prev: Isometry3<f64>,
+    /// Inliers of the motion.
+    inliers: usize,
+    /// The refinement's `JᵀJ`.
+    information: Matrix6<f64>,
+    /// True when the rotation is the gyro's (the image motion failed or disagreed with it).
+    gyro_rotation: bool,
+}
 
 /// A tracked feature: where it is in the current left image and its point in the current
 /// left camera's frame.
@@ -160,6 +170,8 @@ pub struct FrameResult {
     pub gyro_rotation: bool,
     /// Processing time of the frame, from decoded images to its pose, milliseconds.
     pub time_ms: f64,
+    /// Where that time went, stage by stage.
+    pub stages: StageTimes,
 }
 
 /// Stereo visual odometry over a sequence of rectified pairs.
@@ -177,8 +189,6 @@ pub struct StereoOdometry {
     /// frame; `None` until [`StereoOdometry::set_gyro_mount`].
     gyro_mount: Option<UnitQuaternion<f64>>,
     previous_time_s: Option<f64>,
-    /// Whether the last frame's motion kept the gyro's rotation.
-    gyro_rotation_kept: bool,
 }
 
 /// The motion expected for a frame, before its images are seen.
@@ -209,7 +219,6 @@ impl StereoOdometry {
             frame_index: 0,
             gyro_mount: None,
             previous_time_s: None,
-            gyro_rotation_kept: false,
         })
     }
 
@@ -237,29 +246,34 @@ impl StereoOdometry {
         gyro_rover_rad_s: Option<Vector3<f64>>,
     ) -> FrameResult {
         let start = Instant::now();
+        let mut lap = start;
+        let mut stages = StageTimes::default();
         let predicted = self.predicted_motion(time_s, gyro_rover_rad_s);
         self.previous_time_s = Some(time_s);
-        self.gyro_rotation_kept = false;
-        let pyramid = Pyramid::new(left, self.config.pyramid_levels);
-        let right = FloatImage::from_gray(right);
+        let (pyramid, right) = rayon::join(
+            || Pyramid::new(left, self.config.pyramid_levels),
+            || FloatImage::from_gray(right),
+        );
+        stages.pyramid_ms = lap_ms(&mut lap);
         let (tracked, estimate) = match self.previous.take() {
-            Some(prev) => self.track_and_estimate(&prev, &pyramid, &right, &predicted),
+            Some(prev) => self.track_and_estimate(&prev, &pyramid, &right, &predicted, &mut stages),
             None => (0, None),
         };
         let lost = self.frame_index > 0 && estimate.is_none();
-        let (inliers, information) = match &estimate {
-            Some((_, inl, info)) => (*inl, *info),
-            None => (0, Matrix6::zeros()),
+        let (inliers, information, gyro_rotation) = match &estimate {
+            Some(m) => (m.inliers, m.information, m.gyro_rotation),
+            None => (0, Matrix6::zeros(), false),
         };
         let curr_from_prev = match estimate {
-            Some((m, _, _)) => m,
+            Some(m) => m.curr_from_prev,
             None => predicted.curr_from_prev,
         };
         if self.frame_index > 0 {
             self.first_from_camera *= curr_from_prev.inverse();
             self.last_motion = curr_from_prev;
         }
-        self.replenish(&pyramid, &right);
+        self.replenish(&pyramid, &right, &mut stages);
+        lap = Instant::now();
         let observations: Vec<(u64, Vector3<f64>, Point3<f64>)> = self
             .features
             .iter()
@@ -280,6 +294,7 @@ impl StereoOdometry {
         ) {
             self.first_from_camera = refined;
         }
+        stages.window_ms = lap_ms(&mut lap);
         self.previous = Some(pyramid);
         self.frame_index += 1;
         FrameResult {
@@ -295,8 +310,9 @@ impl StereoOdometry {
             } else {
                 rotation_sigma_rad(&information, 1.0).to_degrees()
             },
-            gyro_rotation: self.gyro_rotation_kept,
+            gyro_rotation,
             time_ms: start.elapsed().as_secs_f64() * 1e3,
+            stages,
         }
     }
 
@@ -366,7 +382,9 @@ impl StereoOdometry {
         curr: &Pyramid,
         right: &FloatImage,
         prediction: &Prediction,
+        stages: &mut StageTimes,
     ) -> (usize, Option<Motion>) {
+        let mut lap = Instant::now();
         let predicted_motion = &prediction.curr_from_prev;
         let points: Vec<(f32, f32)> = self.features.iter().map(|f| (f.x, f.y)).collect();
         let predicted: Vec<Option<(f32, f32)>> = self
@@ -379,11 +397,17 @@ impl StereoOdometry {
             })
             .collect();
         let moved = track(prev, curr, &points, &predicted, &self.config.klt);
+        stages.track_ms = lap_ms(&mut lap);
+        let stereo = &self.config.stereo;
+        let disparities: Vec<Option<f32>> = moved
+            .par_iter()
+            .with_min_len(8)
+            .map(|m| m.and_then(|(x, y)| match_point(curr.base(), right, x, y, stereo)))
+            .collect();
         let mut kept = Vec::new();
         let mut correspondences = Vec::new();
-        for (f, m) in self.features.iter().zip(moved) {
+        for ((f, m), disparity) in self.features.iter().zip(moved).zip(disparities) {
             let Some((x, y)) = m else { continue };
-            let disparity = match_point(curr.base(), right, x, y, &self.config.stereo);
             let u_right = disparity.map_or(f64::NAN, |d| (x - d) as f64);
             correspondences.push(Correspondence {
                 p_prev: f.p_camera,
@@ -392,8 +416,8 @@ impl StereoOdometry {
             kept.push((*f, x, y, disparity));
         }
         let tracked = kept.len();
-        let (estimate, gyro_kept) = self.estimate_checked(&correspondences, prediction);
-        self.gyro_rotation_kept = gyro_kept;
+        stages.stereo_ms = lap_ms(&mut lap);
+        let (estimate, gyro_rotation) = self.estimate_checked(&correspondences, prediction);
         self.features.clear();
         if let Some(m) = &estimate {
             for ((f, x, y, disparity), inlier) in kept.into_iter().zip(&m.inliers) {
@@ -411,23 +435,35 @@ impl StereoOdometry {
                 }
             }
         }
-        let result = estimate.map(|m| {
-            let n = m.inliers.iter().filter(|&&b| b).count();
-            (m.curr_from_prev, n, m.information)
+        let result = estimate.map(|m| Motion {
+            curr_from_prev: m.curr_from_prev,
+            inliers: m.inliers.iter().filter(|&&b| b).count(),
+            information: m.information,
+            gyro_rotation,
         });
+        stages.motion_ms = lap_ms(&mut lap);
         (tracked, result)
     }
 
     /// Stage 4: new corners in empty cells, matched and triangulated.
-    fn replenish(&mut self, pyramid: &Pyramid, right: &FloatImage) {
+    fn replenish(&mut self, pyramid: &Pyramid, right: &FloatImage, stages: &mut StageTimes) {
+        let mut lap = Instant::now();
         let base = pyramid.base();
         let (cols, rows) = grid_size(base, &self.config.corners);
         let mut occupied = vec![false; cols * rows];
         for f in &self.features {
             occupied[cell_of(f.x, f.y, base, &self.config.corners)] = true;
         }
-        for (x, y) in detect_corners(base, &self.config.corners, &occupied) {
-            let Some(d) = match_point(base, right, x, y, &self.config.stereo) else {
+        let corners = detect_corners(base, &self.config.corners, &occupied);
+        stages.corners_ms = lap_ms(&mut lap);
+        let stereo = &self.config.stereo;
+        let matched: Vec<Option<f32>> = corners
+            .par_iter()
+            .with_min_len(8)
+            .map(|&(x, y)| match_point(base, right, x, y, stereo))
+            .collect();
+        for ((x, y), disparity) in corners.into_iter().zip(matched) {
+            let Some(d) = disparity else {
                 continue;
             };
             let uv = Vector3::new(x as f64, (x - d) as f64, y as f64);
@@ -441,6 +477,7 @@ impl StereoOdometry {
                 self.next_id += 1;
             }
         }
+        stages.stereo_ms += lap_ms(&mut lap);
     }
 }
 

@@ -70,11 +70,12 @@ impl FloatImage {
             fx * fy,
         );
         let (xi, yi) = (xi as usize, yi as usize);
-        for j in 0..h {
+        out.resize(w * h, 0.0);
+        for (j, dst) in out.chunks_exact_mut(w).enumerate() {
             let r0 = &self.data[(yi + j) * self.width + xi..][..w + 1];
             let r1 = &self.data[(yi + j + 1) * self.width + xi..][..w + 1];
-            for i in 0..w {
-                out.push(w00 * r0[i] + w10 * r0[i + 1] + w01 * r1[i] + w11 * r1[i + 1]);
+            for ((v, a), b) in dst.iter_mut().zip(r0.windows(2)).zip(r1.windows(2)) {
+                *v = w00 * a[0] + w10 * a[1] + w01 * b[0] + w11 * b[1];
             }
         }
     }

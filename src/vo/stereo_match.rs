@@ -56,18 +56,19 @@ pub fn match_point(
     let mut strip = Vec::with_capacity(side * span);
     right.patch(x0, y - hw as f32, span, side, &mut strip);
     let count = (d_max - d_min + 1) as usize;
+    // costs[k] is the window at disparity d = d_max − k, starting at column k of the strip.
+    // Each cost takes its terms in the window's row-major order, one template pixel at a
+    // time over all disparities: the sums are those of a window-by-window loop, bit for
+    // bit, and the inner loop runs over contiguous columns (vectorised).
     let mut costs = vec![0.0f32; count];
-    for (k, cost) in costs.iter_mut().enumerate() {
-        // disparity d = d_max − k: the window starts at column k of the strip
-        let mut sum = 0.0;
-        for r in 0..side {
-            let row = &strip[r * span + k..r * span + k + side];
-            let t = &template[r * side..(r + 1) * side];
-            for (a, b) in row.iter().zip(t) {
-                sum += (a - b).abs();
+    for r in 0..side {
+        for c in 0..side {
+            let t = template[r * side + c];
+            let row = &strip[r * span + c..][..count];
+            for (cost, a) in costs.iter_mut().zip(row) {
+                *cost += (a - t).abs();
             }
         }
-        *cost = sum;
     }
     let (best_k, &best) = costs.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
     let second = costs
