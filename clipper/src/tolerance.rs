@@ -91,7 +91,10 @@ impl ConsistencyGraph {
         }
         let wide = widened(invariant, pair.epsilon_max, pair.epsilon_z_max);
         let candidates = Self::build(prior, query, associations, &wide)?;
-        Ok((pair.filter(&candidates, prior, query, associations), summary))
+        Ok((
+            pair.filter(&candidates, prior, query, associations),
+            summary,
+        ))
     }
 }
 
