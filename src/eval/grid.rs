@@ -15,7 +15,7 @@ use super::{mirrored_x, transform_error, traverse_path};
 use crate::align::Dof;
 use crate::landmarks::from_grid::coarsened;
 use crate::landmarks::{fuse_detections, map_from_grid, GridRocksConfig};
-use crate::relocalize::{RelocalizeConfig, Relocalizer};
+use crate::relocalize::{RelocalizeConfig, Relocalizer, Timings};
 use nalgebra::Isometry3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -109,6 +109,10 @@ pub struct GridTrial {
     /// Relocalization time (ms): the process's CPU time (run with `RAYON_NUM_THREADS=1` for
     /// the one-thread cost, which a busy machine does not inflate as it does wall time).
     pub cpu_ms: f64,
+    /// Edges of the consistency graph.
+    pub graph_edges: usize,
+    /// Wall time (ms) of each stage (see [`Timings`]).
+    pub timings: Timings,
 }
 
 /// Counts over one kind of query.
@@ -391,6 +395,8 @@ fn run_query(
         epsilon_max_m: 0.0,
         time_ms,
         cpu_ms,
+        graph_edges: 0,
+        timings: Timings::default(),
     };
     let answer = match outcome {
         Ok(answer) => answer,
@@ -402,6 +408,8 @@ fn run_query(
     trial.accepted = answer.is_accepted();
     trial.rmse_m = answer.rmse_m;
     trial.associations = answer.diagnostics.associations;
+    trial.graph_edges = answer.diagnostics.graph_edges;
+    trial.timings = answer.diagnostics.timings.clone();
     trial.epsilon_max_m = answer.diagnostics.tolerances.epsilon_max_m;
     trial.inliers = answer
         .diagnostics

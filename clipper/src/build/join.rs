@@ -49,6 +49,8 @@ struct QueryPairs {
     cell_start: Vec<u32>,
     /// Cell width (at least epsilon).
     width: f64,
+    /// The largest distance of the list.
+    max_dist: f64,
 }
 
 /// Points of one map that some association uses, in ascending original index.
@@ -303,6 +305,11 @@ impl JoinContext<'_> {
         // the exact test decides.
         let slack = 1e-9 * test.epsilon + 1e-12 * ma.dist.abs();
         let lo = ma.dist - test.epsilon - slack;
+        if lo > qp.max_dist {
+            // farther apart than any two query points: nothing matches (most prior pairs of
+            // a large site against a small query)
+            return;
+        }
         let hi = ma.dist + test.epsilon + slack;
         let c_lo = cell_of(lo, qp.width).clamp(0, n_cells - 1);
         let c_hi = cell_of(hi, qp.width).clamp(0, n_cells - 1);
@@ -412,6 +419,7 @@ fn sorted_query_pairs(query: &[Point3<f64>], used: &UsedPoints, test: &PairTest)
         l: list.iter().map(|e| e.2).collect(),
         cell_start,
         width,
+        max_dist,
     }
 }
 

@@ -376,3 +376,32 @@ fn extreme_scales_skip_the_prefilter_but_agree() {
     assert_eq!(j, reference);
     assert_eq!(s, reference);
 }
+
+#[test]
+fn a_site_much_larger_than_the_query_joins_as_brute_force() {
+    // prior rocks over 40 m, the query's within 8 m: most prior pairs are farther apart than
+    // any query pair and are skipped without a lookup
+    let mut rng = crate::rng::SplitMix64::new(7);
+    let prior: Vec<_> = (0..200)
+        .map(|_| {
+            let z = 0.3 * rng.next_open01();
+            Point3::new(40.0 * rng.next_open01(), 40.0 * rng.next_open01(), z)
+        })
+        .collect();
+    // the prior's rocks within an 8 m square, moved
+    let query: Vec<_> = prior
+        .iter()
+        .filter(|p| p.x < 8.0 && p.y < 8.0)
+        .map(|p| Point3::new(-p.x + 1.0, p.y + 2.0, p.z + 0.1))
+        .collect();
+    assert!(query.len() >= 3, "{}", query.len());
+    let assoc: Vec<_> = (0..prior.len() as u32)
+        .flat_map(|i| (0..query.len() as u32).map(move |j| Association::new(i, j)))
+        .collect();
+    for inv in [distance(0.1, 0.05), gravity(0.1, 0.05)] {
+        let reference = brute_force(&prior, &query, &assoc, &inv);
+        let (j, s) = both(&prior, &query, &assoc, &inv);
+        assert_eq!(j, reference);
+        assert_eq!(s, reference);
+    }
+}
