@@ -6,7 +6,6 @@
 
 use super::sequence::{check_times, first_from_camera, FrameImages, SequenceFrame, StereoSequence};
 use super::VoError;
-use crate::graph::StereoCalibration;
 use crate::perception::lac::LacRecording;
 use crate::perception::StereoCamera;
 use nalgebra::{Isometry3, Vector3};
@@ -30,14 +29,7 @@ impl StereoSequence {
                 path: path.into(),
                 message: e.to_string(),
             })?;
-        let calibration = StereoCalibration {
-            fx: camera.fx,
-            fy: camera.fy,
-            skew: 0.0,
-            cx: camera.cx,
-            cy: camera.cy,
-            baseline_m: camera.baseline_m,
-        };
+        let calibration = camera.calibration();
         let frames: Vec<SequenceFrame> = numbers
             .iter()
             .map(|&frame| {
