@@ -16,10 +16,10 @@ use crate::sim::render::{rover_from_front_left_optical, Renderer};
 use crate::vo::{StereoOdometry, VoConfig, VoError};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
-use std::time::Instant;
 
-/// Noise keys of the odometry's renders start here, apart from the boulder pairs' keys.
-const NOISE_KEY_BASE: u64 = 1 << 40;
+/// Noise frames of the odometry's renders start here (keys from 2⁴⁰), apart from the
+/// boulder pairs'.
+const NOISE_FRAME_BASE: u64 = 1 << 39;
 
 /// Settings of the image odometry (TOML `[perception.image_odometry]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -173,16 +173,10 @@ impl RenderedOdometry {
     ) -> Option<Isometry3<f64>> {
         let s = self.session.as_mut()?;
         let world_from_left = world_from_rover * self.rover_from_left;
-        let world_from_right =
-            world_from_left * Translation3::new(self.camera.baseline_m, 0.0, 0.0);
-        let key = NOISE_KEY_BASE + 2 * self.pairs;
+        let (left, right, render_ms) =
+            renderer.render_stereo_views(&world_from_left, NOISE_FRAME_BASE + self.pairs);
         self.pairs += 1;
-        let started = Instant::now();
-        let (left, right) = rayon::join(
-            || renderer.render_view(&world_from_left, key),
-            || renderer.render_view(&world_from_right, key + 1),
-        );
-        s.render_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        s.render_ms.push(render_ms);
         let rate = s.gyro.read(time_s, world_from_rover);
         let result = s
             .odometry

@@ -60,14 +60,7 @@ impl Renderer {
     /// the ground truth; `frame` draws the images' noise.
     pub fn render_stereo_from(&self, world_from_left: &Isometry3<f64>, frame: u64) -> StereoFrame {
         let world_from_left = *world_from_left;
-        let baseline = self.camera().baseline_m;
-        let world_from_right = world_from_left * Translation3::new(baseline, 0.0, 0.0);
-        let start = std::time::Instant::now();
-        let (left, right) = rayon::join(
-            || self.render_view(&world_from_left, 2 * frame),
-            || self.render_view(&world_from_right, 2 * frame + 1),
-        );
-        let render_ms = start.elapsed().as_secs_f64() * 1e3;
+        let (left, right, render_ms) = self.render_stereo_views(&world_from_left, frame);
         let instance = left.object.iter().map(|&o| self.instance_of(o)).collect();
         let rocks = self.visible_rocks(&left, &world_from_left);
         StereoFrame {
@@ -79,6 +72,24 @@ impl Renderer {
             rocks,
             render_ms,
         }
+    }
+
+    /// The two views of the stereo pair whose left camera (optical frame) is at
+    /// `world_from_left`, rendered in parallel, without the ground truth; `frame` draws the
+    /// images' noise (keys `2·frame` and `2·frame + 1`). Also the milliseconds both took.
+    pub fn render_stereo_views(
+        &self,
+        world_from_left: &Isometry3<f64>,
+        frame: u64,
+    ) -> (RenderedView, RenderedView, f64) {
+        let baseline = self.camera().baseline_m;
+        let world_from_right = world_from_left * Translation3::new(baseline, 0.0, 0.0);
+        let start = std::time::Instant::now();
+        let (left, right) = rayon::join(
+            || self.render_view(world_from_left, 2 * frame),
+            || self.render_view(&world_from_right, 2 * frame + 1),
+        );
+        (left, right, start.elapsed().as_secs_f64() * 1e3)
     }
 
     /// Instance value of a scene object (see [`StereoFrame::instance`]).
