@@ -21,6 +21,11 @@
 //! - `path` (optional): the odometry's path since the previous frame, `distance_m`,
 //!   `turned_rad` (signed yaw), `turned_abs_rad` (absolute yaw); when absent the consumer
 //!   derives them from consecutive poses.
+//! - `step_cov` (optional): the covariance of the odometry's motion since the previous
+//!   frame, 21 numbers, the upper triangle row by row of a 6 × 6 matrix over a right
+//!   perturbation of `prev_from_rover` (rotation rx, ry, rz in rad, then translation x, y, z
+//!   in m, in the previous frame's rover axes), positive definite; when absent the consumer
+//!   uses its own noise model of the odometry.
 //! - The header line may be absent (version 1). Blank lines are skipped; optional fields
 //!   may also be `null`; unknown fields are ignored, so that a newer writer's additions do
 //!   not break this reader (a misspelt optional field is therefore silently absent).
@@ -33,7 +38,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use nalgebra::{Isometry3, Matrix3, Point3, Translation3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, Vector3};
 use serde_json::{Map, Value};
 
 mod json;
@@ -67,6 +72,10 @@ pub struct StreamFrame {
     pub lander_points_rover: Vec<Point3<f64>>,
     /// The odometry's path since the previous frame, when it reports one.
     pub path: Option<FramePath>,
+    /// Covariance of the odometry's motion since the previous frame, when it reports one:
+    /// a right perturbation of `prev_from_rover`, (rotation rad, translation m) order,
+    /// positive definite.
+    pub step_cov: Option<Matrix6<f64>>,
 }
 
 impl StreamFrame {
@@ -79,6 +88,7 @@ impl StreamFrame {
             detections: Vec::new(),
             lander_points_rover: Vec::new(),
             path: None,
+            step_cov: None,
         }
     }
 }
@@ -189,6 +199,10 @@ pub fn frame_to_json_line(frame: &StreamFrame) -> String {
             ", \"path\": {{\"distance_m\": {:?}, \"turned_rad\": {:?}, \"turned_abs_rad\": {:?}}}",
             path.distance_m, path.turned_rad, path.turned_abs_rad
         );
+    }
+    if let Some(c) = &frame.step_cov {
+        s.push_str(", \"step_cov\": ");
+        push_array(&mut s, &upper_triangle6(c));
     }
     s.push('}');
     s
@@ -365,6 +379,10 @@ fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>)
         }
         None => None,
     };
+    let step_cov = match optional(object, "step_cov") {
+        Some(v) => Some(from_upper_triangle6(&numbers::<21>(v, "step_cov")?)),
+        None => None,
+    };
     let frame = StreamFrame {
         t,
         odom_from_rover,
@@ -372,6 +390,7 @@ fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>)
         detections,
         lander_points_rover,
         path,
+        step_cov,
     };
     check_frame(&frame)?;
     Ok((frame, norm))
@@ -413,7 +432,8 @@ fn format_norm(norm: f64) -> String {
 
 /// The checks of one frame beyond the JSON types, naming the field: every value finite,
 /// quaternion unit within 10⁻³, gravity non-zero, sizes ≥ 0, covariances PSD with a
-/// positive diagonal, path lengths ≥ 0 and |`turned_rad`| ≤ `turned_abs_rad`.
+/// positive diagonal, path lengths ≥ 0 and |`turned_rad`| ≤ `turned_abs_rad`, the step
+/// covariance positive definite.
 fn check_frame(frame: &StreamFrame) -> Result<(), LineError> {
     let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
     if !frame.t.is_finite() {
@@ -486,7 +506,42 @@ fn check_frame(frame: &StreamFrame) -> Result<(), LineError> {
             .into());
         }
     }
+    if let Some(c) = &frame.step_cov {
+        if c.iter().any(|v| !v.is_finite()) {
+            return Err("step_cov: a value is not finite".into());
+        }
+        if c.cholesky().is_none() {
+            return Err(
+                "step_cov: the covariance is not positive definite (21 numbers: the upper \
+                 triangle, row by row, of a 6 × 6 covariance)"
+                    .into(),
+            );
+        }
+    }
     Ok(())
+}
+
+/// The upper triangle of a symmetric 6 × 6 matrix, row by row (21 numbers).
+fn upper_triangle6(c: &Matrix6<f64>) -> Vec<f64> {
+    (0..6)
+        .flat_map(|r| (r..6).map(move |col| (r, col)))
+        .map(|(r, col)| c[(r, col)])
+        .collect()
+}
+
+/// The symmetric 6 × 6 matrix of an upper triangle written row by row
+/// ([`upper_triangle6`]'s inverse).
+fn from_upper_triangle6(values: &[f64; 21]) -> Matrix6<f64> {
+    let mut c = Matrix6::zeros();
+    let mut k = 0;
+    for r in 0..6 {
+        for col in r..6 {
+            c[(r, col)] = values[k];
+            c[(col, r)] = values[k];
+            k += 1;
+        }
+    }
+    c
 }
 
 /// Check frames for writing: at least one, each [checked](check_frame), times strictly

@@ -32,12 +32,12 @@
 //! # }
 //! ```
 
-use crate::graph::StereoCalibration;
+use crate::graph::{se3, StereoCalibration};
 use crate::perception::{FrontEnd, FrontEndConfig, GrayImage, PerceptionError, Segmenter};
 use crate::vo::{
     FrameResult as VoFrame, ImuSample, StereoOdometry, StereoSequence, VoConfig, VoError,
 };
-use nalgebra::{Isometry3, Point3};
+use nalgebra::{Isometry3, Matrix6, Point3};
 use segloc_maps::frames::{FrameDetection, StreamFrame};
 use serde::{Deserialize, Serialize};
 
@@ -157,6 +157,8 @@ impl ImageStream {
         let odom_from_rover = self.rover_from_camera * vo.pose * self.rover_from_camera.inverse();
         let mut frame = StreamFrame::new(time_s, odom_from_rover);
         frame.gravity_rover = gravity_rover;
+        frame.step_cov =
+            step_covariance_rover(&vo, &self.rover_from_camera, self.config.vo.window.sigma_px);
         let front_end_ms = if self.detection_due(time_s) {
             let (detections, ms) = self.detect(left, right)?;
             frame.detections = detections;
@@ -208,6 +210,27 @@ impl ImageStream {
     }
 }
 
+/// The covariance of a VO frame's motion as a frames file's `step_cov`: a right
+/// perturbation of `prev_from_rover` in the rover's axes, from the motion refinement's `JᵀJ`
+/// at `sigma_px` of image noise. `None` when the images gave no motion of their own (lost,
+/// or the gyro's rotation kept): the localizer then uses its noise model.
+pub fn step_covariance_rover(
+    vo: &VoFrame,
+    rover_from_camera: &Isometry3<f64>,
+    sigma_px: f64,
+) -> Option<Matrix6<f64>> {
+    if vo.lost || vo.gyro_rotation {
+        return None;
+    }
+    // a left perturbation of curr_from_prev is minus a right one of prev_from_curr: the
+    // same covariance; X·A·Exp(ξ)·X⁻¹ = (X·A·X⁻¹)·Exp(Ad(X) ξ) moves it into the rover's axes
+    let cov_camera = vo.information.try_inverse()? * (sigma_px * sigma_px);
+    let ad = se3::adjoint(rover_from_camera);
+    let cov = ad * cov_camera * ad.transpose();
+    let cov = (cov + cov.transpose()) * 0.5;
+    (cov.iter().all(|v| v.is_finite()) && cov.cholesky().is_some()).then_some(cov)
+}
+
 /// Every pair of `sequence` through an [`ImageStream`], in time order.
 pub fn stream_sequence(
     sequence: &StereoSequence,
@@ -238,6 +261,57 @@ mod tests {
             cy: 36.0,
             baseline_m: 0.162,
         }
+    }
+
+    #[test]
+    fn the_vo_covariance_moves_into_the_rover_axes() {
+        // an optical camera (z forward, x right, y down) looking along the rover's x, 1 m
+        // up: the camera's depth variance is the rover's x variance
+        let rover_from_camera = Isometry3::from_parts(
+            Vector3::new(0.0, 0.0, 1.0).into(),
+            nalgebra::UnitQuaternion::from_matrix(&nalgebra::Matrix3::new(
+                0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0,
+            )),
+        );
+        let sigmas = [1e-3, 2e-3, 3e-3, 0.01, 0.02, 0.05]; // rx ry rz x y z of the camera
+        let information = Matrix6::from_diagonal(&nalgebra::Vector6::from_iterator(
+            sigmas.iter().map(|s| 1.0 / (s * s)),
+        ));
+        let vo = VoFrame {
+            time_s: 0.1,
+            pose: Isometry3::identity(),
+            tracked: 100,
+            inliers: 90,
+            features: 100,
+            lost: false,
+            information,
+            rotation_sigma_deg: 0.1,
+            gyro_rotation: false,
+            time_ms: 1.0,
+            stages: Default::default(),
+        };
+        let cov = step_covariance_rover(&vo, &rover_from_camera, 1.0).unwrap();
+        // rotations: camera z (optical axis) is rover x, camera x is rover −y, camera y
+        // rover −z
+        assert!((cov[(0, 0)].sqrt() - 3e-3).abs() < 1e-12);
+        assert!((cov[(1, 1)].sqrt() - 1e-3).abs() < 1e-12);
+        assert!((cov[(2, 2)].sqrt() - 2e-3).abs() < 1e-12);
+        // translations, plus the lever of the 1 m mount under the rotations about x and y
+        assert!((cov[(3, 3)] - (0.05f64.powi(2) + 1e-6)).abs() < 1e-12);
+        assert!((cov[(4, 4)] - (0.01f64.powi(2) + 9e-6)).abs() < 1e-12);
+        assert!((cov[(5, 5)] - 0.02f64.powi(2)).abs() < 1e-12);
+        // nothing of its own when the rotation is the gyro's, or when lost
+        let gyro = VoFrame {
+            gyro_rotation: true,
+            ..vo.clone()
+        };
+        assert!(step_covariance_rover(&gyro, &rover_from_camera, 1.0).is_none());
+        let lost = VoFrame {
+            lost: true,
+            information: Matrix6::zeros(),
+            ..vo
+        };
+        assert!(step_covariance_rover(&lost, &rover_from_camera, 1.0).is_none());
     }
 
     #[test]

@@ -155,6 +155,9 @@ pub struct OdometryNoiseConfig {
     pub yaw_sigma_rad_per_m: f64,
     /// Yaw noise per radian turned, 1 σ.
     pub yaw_sigma_per_rad_turned: f64,
+    /// A frame's own odometry covariance (`step_cov` in the frames file: the stereo VO's)
+    /// is used, times this, in place of the noise model above; 0 ignores it. Default 1.
+    pub reported_covariance_scale: f64,
 }
 
 impl Default for OdometryNoiseConfig {
@@ -163,6 +166,7 @@ impl Default for OdometryNoiseConfig {
             translation_sigma_m_per_m: 0.008,
             yaw_sigma_rad_per_m: 0.0015,
             yaw_sigma_per_rad_turned: 0.003,
+            reported_covariance_scale: 1.0,
         }
     }
 }
@@ -174,7 +178,8 @@ impl OdometryNoiseConfig {
             ("translation_sigma_m_per_m", self.translation_sigma_m_per_m),
             ("yaw_sigma_rad_per_m", self.yaw_sigma_rad_per_m),
             ("yaw_sigma_per_rad_turned", self.yaw_sigma_per_rad_turned),
-        ])
+        ])?;
+        non_negative(&[("reported_covariance_scale", self.reported_covariance_scale)])
     }
 }
 
@@ -231,8 +236,10 @@ pub struct OnlineGraphConfig {
     pub incremental: bool,
     /// Re-correct every odometry factor with the re-estimated bias (a batch re-solve) only
     /// when the corrections the factors carry differ from the new estimate by more than this:
-    /// RMS over the steps of each step's change in units of its σ. Below it the new estimate
-    /// corrects the steps added from then on. 0 (the default): every time. See
+    /// the change summed over each stretch between two fixes, in units of the σ of that
+    /// stretch's summed odometry noise, the worst stretch
+    /// (`odometry_bias::stale_correction_sigma`). Below it the new estimate corrects the
+    /// steps added from then on. 0 (the default): every time. See
     /// docs/design/incremental-localizer.md.
     pub recalibrate_sigma: f64,
 }

@@ -52,6 +52,7 @@ impl FrameLog {
                 distance_m: 0.0,
                 turned_rad: 0.0,
                 turned_abs_rad: 0.0,
+                reported_cov: None,
             },
         };
         let attitude = match input.gravity_rover {
@@ -137,6 +138,7 @@ fn step_between(prev: &Isometry3<f64>, input: &StreamFrame) -> OdometryStep {
             distance_m: path.distance_m,
             turned_rad: path.turned_rad,
             turned_abs_rad: path.turned_abs_rad,
+            reported_cov: input.step_cov,
         },
         None => {
             let yaw = measured.rotation.euler_angles().2;
@@ -145,6 +147,7 @@ fn step_between(prev: &Isometry3<f64>, input: &StreamFrame) -> OdometryStep {
                 distance_m: measured.translation.vector.norm(),
                 turned_rad: yaw,
                 turned_abs_rad: yaw.abs(),
+                reported_cov: input.step_cov,
             }
         }
     }
@@ -166,6 +169,7 @@ mod tests {
             }],
             lander_points_rover: Vec::new(),
             path: None,
+            step_cov: None,
         }
     }
 

@@ -10,7 +10,7 @@
 //! squares over every odometry step (with a Gaussian prior on each bias, so a session
 //! without fixes keeps them at zero), and corrects the measurements with them.
 
-use nalgebra::{Isometry3, Matrix2, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Isometry3, Matrix2, Matrix6, UnitQuaternion, Vector2, Vector3};
 use serde::Serialize;
 
 /// The odometry measured between two consecutive frames, with what its biases scale with.
@@ -24,6 +24,9 @@ pub struct OdometryStep {
     pub turned_rad: f64,
     /// Absolute yaw turned (sum of the absolute per-tick yaw increments), radians.
     pub turned_abs_rad: f64,
+    /// The odometry's own covariance of `measured` (right perturbation, rotation then
+    /// translation), when the frame reported one.
+    pub reported_cov: Option<Matrix6<f64>>,
 }
 
 /// The systematic errors of the odometry: measured distance = true × (1 + `scale_error`);
@@ -130,30 +133,52 @@ pub fn estimate_bias(
 }
 
 /// How far the corrections the odometry factors carry (`applied[i]` on `steps[i]`) are from
-/// the bias `estimate`: the root mean square over the steps of each corrected step's change
-/// (yaw and translation) in units of its σ (`weights[i]`). A change well under one σ per
-/// step is noise the factors absorb; 0 when there are no steps.
-pub fn correction_change_sigma(
+/// the bias `estimate`, in σ of what the fixes can absorb: a stale correction is
+/// systematic, so over a stretch of L steps between two fixes its change adds up to L·δ
+/// while the factors' noise adds up to √L·σ. The trajectory is cut into stretches at the
+/// frames in `fix_frames` (frame k sits between `steps[k − 1]` and `steps[k]`); on each
+/// stretch the summed yaw change and the summed translation change are divided by the root
+/// of their summed variances (`weights[i]` are the inverse variances), and the result is the
+/// largest root-sum-square of the two over the stretches; 0 when there are no steps.
+pub fn stale_correction_sigma(
     steps: &[OdometryStep],
     applied: &[OdometryBias],
     weights: &[StepWeight],
     estimate: &OdometryBias,
+    fix_frames: &[usize],
 ) -> f64 {
-    let mut sum = 0.0;
-    let mut n = 0usize;
-    for ((step, a), w) in steps.iter().zip(applied).zip(weights) {
-        let yaw = (estimate.yaw_drift_rad_per_m - a.yaw_drift_rad_per_m) * step.distance_m
-            + (estimate.yaw_scale_error - a.yaw_scale_error) * step.turned_rad;
-        let scale = 1.0 / (1.0 + estimate.scale_error) - 1.0 / (1.0 + a.scale_error);
-        let translation = scale * step.measured.translation.vector.norm();
-        sum += yaw * yaw * w.yaw + translation * translation * w.translation;
-        n += 1;
+    let mut cuts: Vec<usize> = fix_frames
+        .iter()
+        .copied()
+        .filter(|&k| k > 0 && k < steps.len())
+        .collect();
+    cuts.sort_unstable();
+    cuts.dedup();
+    cuts.push(steps.len());
+    let mut worst: f64 = 0.0;
+    let mut start = 0;
+    for end in cuts {
+        let stretch = start..end;
+        start = end;
+        let (mut yaw, mut yaw_var, mut translation, mut translation_var) = (0.0, 0.0, 0.0, 0.0);
+        for ((step, a), w) in steps[stretch.clone()]
+            .iter()
+            .zip(&applied[stretch.clone()])
+            .zip(&weights[stretch])
+        {
+            yaw += (estimate.yaw_drift_rad_per_m - a.yaw_drift_rad_per_m) * step.distance_m
+                + (estimate.yaw_scale_error - a.yaw_scale_error) * step.turned_rad;
+            let scale = 1.0 / (1.0 + estimate.scale_error) - 1.0 / (1.0 + a.scale_error);
+            translation += scale * step.measured.translation.vector.norm();
+            yaw_var += 1.0 / w.yaw;
+            translation_var += 1.0 / w.translation;
+        }
+        if yaw_var > 0.0 && translation_var > 0.0 {
+            let z2 = yaw * yaw / yaw_var + translation * translation / translation_var;
+            worst = worst.max(z2.sqrt());
+        }
     }
-    if n == 0 {
-        0.0
-    } else {
-        (sum / n as f64).sqrt()
-    }
+    worst
 }
 
 #[cfg(test)]
@@ -185,6 +210,7 @@ mod tests {
                 distance_m: measured.translation.vector.norm(),
                 turned_rad: measured.rotation.euler_angles().2,
                 turned_abs_rad: measured.rotation.euler_angles().2.abs(),
+                reported_cov: None,
             });
             let last = *truth.last().unwrap();
             truth.push(last * motion);
@@ -226,7 +252,7 @@ mod tests {
     }
 
     #[test]
-    fn a_correction_change_is_measured_in_sigmas() {
+    fn a_stale_correction_is_measured_over_the_stretches_between_fixes() {
         let (steps, _) = drive(&OdometryBias::default());
         let weights = vec![
             StepWeight {
@@ -236,15 +262,30 @@ mod tests {
             steps.len()
         ];
         let applied = vec![OdometryBias::default(); steps.len()];
-        let same = correction_change_sigma(&steps, &applied, &weights, &OdometryBias::default());
+        let same =
+            stale_correction_sigma(&steps, &applied, &weights, &OdometryBias::default(), &[]);
         assert_eq!(same, 0.0);
-        // 1 % of scale on steps of 0.25-0.3 m against σ = 1 cm: about a quarter σ
+        // 1 % of scale on steps of 0.25-0.3 m against σ = 1 cm: about a quarter σ a step,
+        // systematic, so it grows with the root of the stretch's length
         let scaled = OdometryBias {
             scale_error: 0.01,
             ..OdometryBias::default()
         };
-        let m = correction_change_sigma(&steps, &applied, &weights, &scaled);
-        assert!((0.1..0.3).contains(&m), "{m}");
+        let whole = stale_correction_sigma(&steps, &applied, &weights, &scaled, &[]);
+        let halves = stale_correction_sigma(&steps, &applied, &weights, &scaled, &[30]);
+        let step_rms = 0.2; // ≈ the per-step change, in σ
+        assert!(
+            whole > step_rms * (steps.len() as f64).sqrt() * 0.7,
+            "{whole}"
+        );
+        assert!(
+            (halves / whole - 0.5f64.sqrt()).abs() < 0.1,
+            "{halves} {whole}"
+        );
+        // fixes at every frame: back to the per-step change
+        let every: Vec<usize> = (0..=steps.len()).collect();
+        let single = stale_correction_sigma(&steps, &applied, &weights, &scaled, &every);
+        assert!((0.1..0.35).contains(&single), "{single}");
     }
 
     #[test]

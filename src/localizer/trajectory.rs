@@ -5,7 +5,7 @@
 use super::config::OdometryNoiseConfig;
 use super::frame_log::FrameLog;
 use super::odometry_bias::{
-    correction_change_sigma, estimate_bias, BiasPrior, OdometryBias, OdometryStep, StepWeight,
+    estimate_bias, stale_correction_sigma, BiasPrior, OdometryBias, OdometryStep, StepWeight,
 };
 use super::LocalizerConfig;
 use crate::graph::{
@@ -40,6 +40,16 @@ pub fn odometry_information(
         info[(i, i)] = 1.0 / (sigma_t * sigma_t);
     }
     info
+}
+
+/// Information of one odometry step: the inverse of the covariance the odometry reported
+/// with it (`step_cov` of the frames file, times `reported_covariance_scale`), else the
+/// noise model of [`odometry_information`].
+pub fn step_information(step: &OdometryStep, config: &OdometryNoiseConfig) -> Matrix6<f64> {
+    step.reported_cov
+        .filter(|_| config.reported_covariance_scale > 0.0)
+        .and_then(|c| (c * config.reported_covariance_scale).try_inverse())
+        .unwrap_or_else(|| odometry_information(step.distance_m, step.turned_abs_rad, config))
 }
 
 /// A factor other than odometry, kept so that the graph can be rebuilt with re-corrected
@@ -227,8 +237,7 @@ impl TrajectoryGraph {
                 // chain on the optimised previous pose
                 let prev = graph.pose(k as u64 - 1).unwrap_or_else(Isometry3::identity);
                 graph.add_pose(k as u64, prev * z)?;
-                let info =
-                    odometry_information(step.distance_m, step.turned_abs_rad, &config.odometry);
+                let info = step_information(&step, &config.odometry);
                 graph.add_between(k as u64 - 1, k as u64, z, info, RobustKernel::None)?;
                 self.steps.push(step);
                 self.applied.push(self.bias);
@@ -367,7 +376,13 @@ impl TrajectoryGraph {
         let started = Instant::now();
         let weights = self.step_weights(config);
         let estimate = self.estimate_bias(config, &weights);
-        let change = correction_change_sigma(&self.steps, &self.applied, &weights, &estimate);
+        let change = stale_correction_sigma(
+            &self.steps,
+            &self.applied,
+            &weights,
+            &estimate,
+            &self.fix_frames(),
+        );
         self.bias = estimate;
         // the re-solves below are timed as updates
         self.counts.time(started);
@@ -387,12 +402,25 @@ impl TrajectoryGraph {
         Ok(())
     }
 
+    /// The frames that a relocalization, a pose prior or a loop closure ties down.
+    fn fix_frames(&self) -> Vec<usize> {
+        self.extra
+            .iter()
+            .flat_map(|f| match f {
+                ExtraFactor::Relocalization { k, .. } | ExtraFactor::Prior { k, .. } => {
+                    vec![*k]
+                }
+                ExtraFactor::Between { j, k, .. } => vec![*j, *k],
+            })
+            .collect()
+    }
+
     /// Each step's weight in the bias estimate: its odometry factor's information.
     fn step_weights(&self, config: &LocalizerConfig) -> Vec<StepWeight> {
         self.steps
             .iter()
             .map(|s| {
-                let info = odometry_information(s.distance_m, s.turned_abs_rad, &config.odometry);
+                let info = step_information(s, &config.odometry);
                 StepWeight {
                     yaw: info[(2, 2)],
                     translation: info[(3, 3)],
@@ -455,7 +483,7 @@ impl TrajectoryGraph {
             graph.add_frame(PRIOR_FRAME, frame)?;
         }
         for (i, step) in self.steps.iter().enumerate() {
-            let info = odometry_information(step.distance_m, step.turned_abs_rad, &config.odometry);
+            let info = step_information(step, &config.odometry);
             let z = self.bias.correct(step);
             graph.add_between(i as u64, i as u64 + 1, z, info, RobustKernel::None)?;
         }
@@ -530,7 +558,7 @@ impl TrajectoryGraph {
         let (from, to) = (a.min(b), a.max(b));
         let (mut var_t, mut var_yaw, mut path) = (0.0, 0.0, 0.0);
         for step in self.steps.iter().take(to).skip(from) {
-            let info = odometry_information(step.distance_m, step.turned_abs_rad, config);
+            let info = step_information(step, config);
             var_t += 1.0 / info[(3, 3)];
             var_yaw += 1.0 / info[(2, 2)];
             path += step.distance_m;
@@ -581,6 +609,32 @@ mod tests {
     use super::*;
     use crate::localizer::config::OnlineGraphConfig;
     use segloc_maps::frames::StreamFrame;
+
+    #[test]
+    fn a_reported_step_covariance_replaces_the_noise_model() {
+        let mut step = OdometryStep {
+            measured: Isometry3::translation(0.4, 0.0, 0.0),
+            distance_m: 0.4,
+            turned_rad: 0.0,
+            turned_abs_rad: 0.0,
+            reported_cov: None,
+        };
+        let mut config = OdometryNoiseConfig::default();
+        let model = step_information(&step, &config);
+        assert_eq!(model, odometry_information(0.4, 0.0, &config));
+        let cov = Matrix6::from_diagonal(&nalgebra::Vector6::new(
+            1e-8, 1e-8, 4e-8, 1e-6, 1e-6, 4e-6,
+        ));
+        step.reported_cov = Some(cov);
+        let reported = step_information(&step, &config);
+        assert!((reported[(2, 2)] - 2.5e7).abs() < 1e-3);
+        assert!((reported[(3, 3)] - 1e6).abs() < 1e-6);
+        config.reported_covariance_scale = 4.0;
+        assert!((step_information(&step, &config)[(3, 3)] - 2.5e5).abs() < 1e-6);
+        // 0: the frames' covariances are ignored
+        config.reported_covariance_scale = 0.0;
+        assert_eq!(step_information(&step, &config), model);
+    }
 
     #[test]
     fn odometry_weight_falls_with_distance_and_turning() {
@@ -709,7 +763,7 @@ mod tests {
         };
         let always = drive_online(&config, &log, &truth);
         assert!(always.counts.recalibrations >= 25, "{:?}", always.counts);
-        config.online_graph.recalibrate_sigma = 0.1;
+        config.online_graph.recalibrate_sigma = OnlineGraphConfig::fast().recalibrate_sigma;
         let bounded = drive_online(&config, &log, &truth);
         // the 2 % scale error is learnt in a few recalibrations, then only refined
         assert!(

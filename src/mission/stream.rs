@@ -35,6 +35,7 @@ pub fn frame_input(log: &SessionLog, k: usize, gravity: bool) -> Option<StreamFr
             .collect(),
         lander_points_rover: f.lander_points_rover.clone(),
         path,
+        step_cov: None,
     })
 }
 

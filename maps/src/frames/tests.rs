@@ -32,6 +32,13 @@ fn frames() -> Vec<StreamFrame> {
             turned_rad: -0.01,
             turned_abs_rad: 0.02,
         }),
+        step_cov: Some(Matrix6::from_fn(|r, c| {
+            if r == c {
+                [1e-6, 1e-6, 4e-6, 1e-5, 1e-5, 2e-5][r]
+            } else {
+                1e-8
+            }
+        })),
     };
     let minimal = StreamFrame::new(0.2, Isometry3::identity());
     let mut awkward = StreamFrame::new(
@@ -125,9 +132,18 @@ fn text_looks_as_documented() {
         "{}",
         lines[1]
     );
-    assert!(lines[1].ends_with(
-        "\"path\": {\"distance_m\": 0.051, \"turned_rad\": -0.01, \"turned_abs_rad\": 0.02}}"
+    assert!(lines[1].contains(
+        "\"path\": {\"distance_m\": 0.051, \"turned_rad\": -0.01, \"turned_abs_rad\": 0.02}"
     ));
+    // the step covariance's upper triangle, row by row
+    assert!(
+        lines[1].ends_with(
+            "\"step_cov\": [1e-6, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-6, 1e-8, 1e-8, 1e-8, 1e-8, \
+             4e-6, 1e-8, 1e-8, 1e-8, 1e-5, 1e-8, 1e-8, 1e-5, 1e-8, 2e-5]}"
+        ),
+        "{}",
+        lines[1]
+    );
     assert!(lines[3].contains("\"p_rover\": [5e-324, 0.30000000000000004, -7.0]"));
     assert!(!frame_to_json_line(&frames()[0]).contains('\n'));
 }
@@ -336,6 +352,18 @@ fn values_are_checked() {
         ", \"detections\": [{\"p_rover\": [1, 2, 3], \"cov_rover\": [-1, 0, 0, 1, 0, 1]}]"
     ))
     .contains("detections[0].cov_rover: covariance has a negative variance xx"));
+    // a step covariance: 21 numbers, positive definite
+    let identity6 = "1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 1, 0, 1";
+    assert!(parse(&line(1.0, &format!(", \"step_cov\": [{identity6}]"))).is_ok());
+    assert_eq!(
+        err2(&line(1.0, ", \"step_cov\": [1, 0, 0]")),
+        "rec/drive.jsonl:3: step_cov: expected 21 numbers, got 3"
+    );
+    assert!(err2(&line(
+        1.0,
+        &format!(", \"step_cov\": [{}]", identity6.replacen('1', "-1", 1))
+    ))
+    .starts_with("rec/drive.jsonl:3: step_cov: the covariance is not positive definite"));
     assert_eq!(
         err2(&line(
             1.0,
