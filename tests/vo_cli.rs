@@ -53,7 +53,7 @@ fn kitti() -> Option<PathBuf> {
 fn kitti_frames_give_a_small_end_point_error() {
     let Some(seq) = kitti() else { return };
     let out = common::segloc()
-        .args(["eval", "vo", "--json", "--kitti"])
+        .args(["eval", "vo", "--json", "--from-frame", "11", "--kitti"])
         .arg(&seq)
         .output()
         .unwrap();
@@ -62,9 +62,15 @@ fn kitti_frames_give_a_small_end_point_error() {
     let t = v["translation_error_percent"].as_f64().unwrap();
     let r = v["rotation_error_deg"].as_f64().unwrap();
     assert_eq!(v["lost_frames"].as_u64(), Some(0));
-    // A regression guard at the figures measured in BENCHMARKS.md (0.85 %, 1.04°), not the
-    // issue's targets (1.5 %, 0.3°).
+    // A regression guard at the figures measured in BENCHMARKS.md (0.89 %, 1.01°): most of
+    // the rotation error is the truth's interpolated frames 0-11
+    // (docs/design/vo-kitti-truth.md); from frame 11 on, the 0.3° (0.23° measured).
     assert!(t < 1.5 && r < 1.5, "translation {t} %, rotation {r}°");
+    let later = &v["from_frame"];
+    assert_eq!(later["frame"].as_u64(), Some(11));
+    let r11 = later["rotation_error_deg"].as_f64().unwrap();
+    let t11 = later["translation_error_percent"].as_f64().unwrap();
+    assert!(r11 < 0.3 && t11 < 1.5, "from frame 11: {t11} %, {r11}°");
 }
 
 fn copy_sequence(from: &Path, to: &Path, frames: usize) {

@@ -4,6 +4,7 @@
 //! calibration, an unwritable output), 1 anything else.
 
 use clap::Args;
+use nalgebra::Isometry3;
 use segloc::graph::file::write_atomic;
 use segloc::vo::{
     run_sequence, segment_drift, tum, FrameResult, SegmentDrift, StageTimes, StereoSequence,
@@ -94,6 +95,11 @@ pub struct EvalVoArgs {
     /// VO configuration (TOML, fields of `VoConfig`).
     #[arg(long, value_name = "FILE")]
     pub vo_config: Option<PathBuf>,
+    /// Also score the motion from this frame to the last one (estimate and truth both taken
+    /// relative to this frame): `from_frame_*` in the output. The KITTI excerpt's truth is a
+    /// constant-rate interpolation over frames 0–11 (docs/design/vo-kitti-truth.md).
+    #[arg(long, value_name = "N")]
+    pub from_frame: Option<usize>,
     /// Print one JSON object with the results.
     #[arg(long)]
     pub json: bool,
@@ -245,10 +251,62 @@ struct EvalOutput<'a> {
     translation_error_m: f64,
     translation_error_percent: f64,
     rotation_error_deg: f64,
+    /// The same errors for the motion from `--from-frame` to the last frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    from_frame: Option<EndPointErrors>,
     /// KITTI's metric over 10 m segments; null when the drive is shorter.
     drift_10m: Option<SegmentDrift>,
     #[serde(flatten)]
     vo: VoOutput<'a>,
+}
+
+/// End-point errors of the motion from one frame to the last.
+#[derive(Serialize)]
+struct EndPointErrors {
+    /// The first frame of the motion scored.
+    frame: usize,
+    /// Distance along the truth from that frame to the last, metres.
+    distance_m: f64,
+    /// End-point translation error, metres.
+    translation_error_m: f64,
+    /// The same as a percentage of the distance.
+    translation_error_percent: f64,
+    /// Angle of the end-point rotation error, degrees.
+    rotation_error_deg: f64,
+}
+
+/// The end-point errors of the estimate's motion from `from` to the last frame against the
+/// truth's (both expressed in frame `from`'s camera frame); `None` when `from` is not
+/// before the last frame of both.
+fn end_point_errors(
+    estimate_first_from_camera: &[Isometry3<f64>],
+    truth_first_from_camera: &[Isometry3<f64>],
+    from: usize,
+) -> Option<EndPointErrors> {
+    let last = estimate_first_from_camera
+        .len()
+        .min(truth_first_from_camera.len())
+        .checked_sub(1)?;
+    if from >= last {
+        return None;
+    }
+    let relative = |poses: &[Isometry3<f64>]| poses[from].inverse() * poses[last];
+    let (estimate, truth) = (
+        relative(estimate_first_from_camera),
+        relative(truth_first_from_camera),
+    );
+    let distance_m: f64 = truth_first_from_camera[from..=last]
+        .windows(2)
+        .map(|w| (w[1].translation.vector - w[0].translation.vector).norm())
+        .sum();
+    let translation_error_m = (estimate.translation.vector - truth.translation.vector).norm();
+    Some(EndPointErrors {
+        frame: from,
+        distance_m,
+        translation_error_m,
+        translation_error_percent: 100.0 * translation_error_m / distance_m.max(1e-9),
+        rotation_error_deg: (truth.inverse() * estimate).rotation.angle().to_degrees(),
+    })
 }
 
 /// Runs `segloc eval vo`.
@@ -266,6 +324,18 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
             .into());
         };
         let results = run_sequence(&sequence, &config)?;
+        let poses: Vec<Isometry3<f64>> = results.iter().map(|r| r.pose).collect();
+        let from_frame = match a.from_frame {
+            Some(n) => {
+                Some(
+                    end_point_errors(&poses, &truth, n).ok_or_else(|| VoError::Sequence {
+                        path: source.clone(),
+                        message: format!("--from-frame {n}: not before the last frame"),
+                    })?,
+                )
+            }
+            None => None,
+        };
         let distance_m: f64 = truth
             .windows(2)
             .map(|w| (w[1].translation.vector - w[0].translation.vector).norm())
@@ -285,11 +355,8 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
             translation_error_m,
             translation_error_percent: 100.0 * translation_error_m / distance_m.max(1e-9),
             rotation_error_deg: err.rotation.angle().to_degrees(),
-            drift_10m: segment_drift(
-                &results.iter().map(|r| r.pose).collect::<Vec<_>>(),
-                &truth,
-                10.0,
-            ),
+            from_frame,
+            drift_10m: segment_drift(&poses, &truth, 10.0),
             vo: summary(&results, &config),
         };
         if a.json {
@@ -300,6 +367,12 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
                 out.vo.frames, out.distance_m, out.translation_error_m, out.translation_error_percent, out.rotation_error_deg, out.vo.per_frame_ms.median, out.vo.per_frame_ms.p99, out.vo.lost_frames
             );
             println!("{}", stage_line(&out.vo.stage_ms_median));
+            if let Some(e) = &out.from_frame {
+                println!(
+                    "from frame {} ({:.2} m): end-point translation error {:.3} m ({:.2} %), rotation error {:.3}°",
+                    e.frame, e.distance_m, e.translation_error_m, e.translation_error_percent, e.rotation_error_deg
+                );
+            }
             if let Some(d) = &out.drift_10m {
                 println!(
                     "over {} segments of 10 m: translation drift {:.2} % (p90 {:.2} %), rotation {:.3}° per 10 m",
@@ -309,4 +382,38 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
         }
         Ok(())
     })())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+
+    #[test]
+    fn errors_from_a_frame_ignore_the_error_made_before_it() {
+        let step = |yaw: f64| {
+            Isometry3::from_parts(
+                Translation3::new(0.0, 0.0, 1.0),
+                UnitQuaternion::from_axis_angle(&Vector3::y_axis(), yaw),
+            )
+        };
+        let mut truth = vec![Isometry3::identity()];
+        let mut estimate = vec![Isometry3::identity()];
+        for k in 0..6 {
+            // the estimate turns 1° too far on the first step only
+            let extra = if k == 0 { 1f64.to_radians() } else { 0.0 };
+            truth.push(truth[k] * step(0.01));
+            estimate.push(estimate[k] * step(0.01 + extra));
+        }
+        let all = end_point_errors(&estimate, &truth, 0).unwrap();
+        assert!(
+            (all.rotation_error_deg - 1.0).abs() < 1e-9,
+            "{}",
+            all.rotation_error_deg
+        );
+        let later = end_point_errors(&estimate, &truth, 1).unwrap();
+        assert!(later.rotation_error_deg < 1e-9 && later.translation_error_m < 1e-9);
+        assert!((later.distance_m - 5.0).abs() < 1e-9);
+        assert!(end_point_errors(&estimate, &truth, 6).is_none());
+    }
 }
