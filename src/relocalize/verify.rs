@@ -42,7 +42,7 @@ pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Res
         });
     }
     if let Some(yaw_sigma_deg) = best.yaw_sigma_deg {
-        if !(yaw_sigma_deg <= config.max_yaw_sigma_deg) {
+        if yaw_sigma_deg.is_nan() || yaw_sigma_deg > config.max_yaw_sigma_deg {
             return Err(Refusal::YawUncertain {
                 yaw_sigma_deg,
                 max_yaw_sigma_deg: config.max_yaw_sigma_deg,
