@@ -116,7 +116,7 @@ impl RelocalizeResult {
     }
 
     /// The refusal's stable code (`too_few_landmarks`, `no_hypothesis`, `too_few_inliers`,
-    /// `residual_too_large`, `degenerate_geometry`, `ambiguous`), or None when accepted.
+    /// `residual_too_large`, `degenerate_geometry`, `yaw_uncertain`, `ambiguous`), or None when accepted.
     #[getter]
     fn refusal_code(&self) -> Option<&'static str> {
         self.inner.refusal().map(|r| r.code())

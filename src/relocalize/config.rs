@@ -186,6 +186,13 @@ pub struct VerificationConfig {
     /// Two hypotheses whose transforms differ by less than this (m, at the inliers) are
     /// the same hypothesis.
     pub same_hypothesis_m: f64,
+    /// Widened (grid) tolerances only: the largest standard deviation (degrees) of the yaw
+    /// the inliers' covariances leave (the 4-DOF marginal of the information matrix):
+    /// half the 1° an answer counts as wrong at, so an accepted yaw is within it at 2σ. A
+    /// few inliers of 4–6 cm quantisation over a metre fix the yaw to 0.5° at best
+    /// (docs/design/grid-yaw-precision.md). Session maps (tolerances at their floor) are
+    /// not tested: `min_spread_m` stands for it.
+    pub max_yaw_sigma_deg: f64,
 }
 
 impl Default for VerificationConfig {
@@ -198,6 +205,7 @@ impl Default for VerificationConfig {
             max_runner_up_ratio: 0.6,
             min_runner_up_margin: 3,
             same_hypothesis_m: 0.25,
+            max_yaw_sigma_deg: 0.5,
         }
     }
 }

@@ -179,6 +179,7 @@ fn examine(
         rmse_m,
         spread_m: minor_axis_spread(&inlier_prior),
         tilt: refined.tilt.map(Into::into),
+        yaw_sigma_deg: None,
     })
 }
 

@@ -147,6 +147,13 @@ impl Relocalizer {
         timings.clique_ms = found.clique_ms;
         timings.alignment_ms = found.alignment_ms;
         let mut hypotheses = found.hypotheses;
+        if scaled.is_some() {
+            // wide (grid) tolerances: a few coarse inliers may fix the yaw no better than
+            // the 1° a wrong answer is (see `VerificationConfig::max_yaw_sigma_deg`)
+            for h in &mut hypotheses {
+                h.yaw_sigma_deg = Some(yaw_sigma_of(h, prior, &query));
+            }
+        }
 
         // Hypotheses → verification → the accepted transform with its information.
         let no_hypothesis = Refusal::NoHypothesis {
@@ -261,6 +268,19 @@ fn accept(
         inliers,
         information,
     }
+}
+
+/// [`verify::yaw_sigma_deg`] of a hypothesis' inliers.
+fn yaw_sigma_of(h: &Hypothesis, prior: &PreparedMap, query: &PreparedMap) -> f64 {
+    let pairs: Vec<_> = h
+        .inliers
+        .iter()
+        .map(|&(i, j)| {
+            let a = segloc_clipper::Association { prior: i, query: j };
+            hypotheses::pair_of(&a, prior, query)
+        })
+        .collect();
+    verify::yaw_sigma_deg(&pairs, &h.prior_from_query)
 }
 
 fn ms_since(t: Instant) -> f64 {

@@ -43,6 +43,13 @@ pub enum Refusal {
         /// Smallest accepted (m).
         min_spread_m: f64,
     },
+    /// Widened (grid) tolerances: the inliers' covariances leave the yaw too uncertain.
+    YawUncertain {
+        /// Standard deviation (degrees) of the yaw.
+        yaw_sigma_deg: f64,
+        /// Largest accepted (degrees).
+        max_yaw_sigma_deg: f64,
+    },
     /// A different transform is supported almost as well.
     Ambiguous {
         /// Inliers of the best hypothesis.
@@ -55,7 +62,7 @@ pub enum Refusal {
 impl Refusal {
     /// A stable machine-readable code, the same as the JSON's `kind`
     /// (`too_few_landmarks`, `no_hypothesis`, `too_few_inliers`, `residual_too_large`,
-    /// `degenerate_geometry`, `ambiguous`).
+    /// `degenerate_geometry`, `yaw_uncertain`, `ambiguous`).
     pub fn code(&self) -> &'static str {
         match self {
             Refusal::TooFewLandmarks { .. } => "too_few_landmarks",
@@ -63,6 +70,7 @@ impl Refusal {
             Refusal::TooFewInliers { .. } => "too_few_inliers",
             Refusal::ResidualTooLarge { .. } => "residual_too_large",
             Refusal::DegenerateGeometry { .. } => "degenerate_geometry",
+            Refusal::YawUncertain { .. } => "yaw_uncertain",
             Refusal::Ambiguous { .. } => "ambiguous",
         }
     }
@@ -92,6 +100,13 @@ impl std::fmt::Display for Refusal {
                 f,
                 "inliers collinear or clustered: minor-axis spread {:.2} m < {:.2} m",
                 spread_m, min_spread_m
+            ),
+            Refusal::YawUncertain {
+                yaw_sigma_deg,
+                max_yaw_sigma_deg,
+            } => write!(
+                f,
+                "yaw too uncertain: sigma {yaw_sigma_deg:.2} deg > {max_yaw_sigma_deg:.2} deg"
             ),
             Refusal::Ambiguous { best_inliers, runner_up_inliers } => write!(
                 f,
@@ -126,6 +141,9 @@ pub struct Hypothesis {
     /// The residual gate (m) for this hypothesis: the configured floor, or the RMS residual
     /// its inliers' covariances predict times the multiplier, whichever is larger.
     pub max_rmse_m: f64,
+    /// Widened (grid) tolerances only: the standard deviation (degrees) of the yaw from the
+    /// inliers' covariances (see `VerificationConfig::max_yaw_sigma_deg`).
+    pub yaw_sigma_deg: Option<f64>,
 }
 
 /// The tolerances a relocalization used (they follow the landmarks' covariances).

@@ -7,7 +7,8 @@
 
 use super::config::VerificationConfig;
 use super::result::{Hypothesis, Refusal};
-use nalgebra::Isometry3;
+use crate::align::{information_matrix, WeightedPair};
+use nalgebra::{Isometry3, Matrix4};
 
 /// Sort `hypotheses` best first and decide; `Ok` means the first one is accepted.
 pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Result<(), Refusal> {
@@ -39,6 +40,14 @@ pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Res
             spread_m: best.spread_m,
             min_spread_m: config.min_spread_m,
         });
+    }
+    if let Some(yaw_sigma_deg) = best.yaw_sigma_deg {
+        if yaw_sigma_deg.is_nan() || yaw_sigma_deg > config.max_yaw_sigma_deg {
+            return Err(Refusal::YawUncertain {
+                yaw_sigma_deg,
+                max_yaw_sigma_deg: config.max_yaw_sigma_deg,
+            });
+        }
     }
     let runner_up = hypotheses[1..]
         .iter()
@@ -84,6 +93,22 @@ pub fn chance_inliers(prior: &[nalgebra::Point3<f64>], query_landmarks: usize, r
 /// clear (see [`chance_inliers`]).
 pub const CHANCE_SIGMAS: f64 = 4.0;
 
+/// Standard deviation (degrees) of the yaw of `prior_from_query` fitted to `pairs`: the yaw
+/// entry of the inverse of the information matrix's yaw-and-translation block (the tilt
+/// held, as gravity fixes it), the matrix scaled down when the residuals exceed what the
+/// weights predict ([`information_matrix`]). Infinite when the pairs leave it free.
+pub fn yaw_sigma_deg(pairs: &[WeightedPair], prior_from_query: &Isometry3<f64>) -> f64 {
+    let info = information_matrix(pairs, prior_from_query);
+    // rotation (x, y, z) first, then translation: yaw and translation are 2, 3, 4, 5
+    let block = Matrix4::from_fn(|r, c| info[(r + 2, c + 2)]);
+    match block.try_inverse() {
+        Some(cov) if cov[(0, 0)].is_finite() && cov[(0, 0)] >= 0.0 => {
+            cov[(0, 0)].sqrt().to_degrees()
+        }
+        _ => f64::INFINITY,
+    }
+}
+
 /// Largest distance (m) between where two transforms put the best hypothesis' inliers.
 fn max_displacement(a: &Isometry3<f64>, b: &Isometry3<f64>, best: &Hypothesis) -> f64 {
     best.support_query
@@ -111,6 +136,7 @@ mod tests {
             spread_m: spread,
             tilt: None,
             max_rmse_m: 0.03,
+            yaw_sigma_deg: None,
         }
     }
 
@@ -154,6 +180,41 @@ mod tests {
         assert!(chance_inliers(&prior, 500, 0.1) > 30);
         assert!(chance_inliers(&prior, 100, 0.2) > 11);
         assert_eq!(chance_inliers(&[], 100, 0.1), 0);
+    }
+
+    #[test]
+    fn an_uncertain_yaw_is_refused_only_when_tested() {
+        let cfg = VerificationConfig::default();
+        let mut loose = hyp(12, 0.01, 1.0, 0.0);
+        loose.yaw_sigma_deg = Some(0.8);
+        let refused = decide(&mut [loose.clone()], &cfg);
+        assert!(matches!(refused, Err(Refusal::YawUncertain { .. })));
+        loose.yaw_sigma_deg = Some(0.3);
+        assert!(decide(&mut [loose.clone()], &cfg).is_ok());
+        loose.yaw_sigma_deg = None;
+        assert!(decide(&mut [loose], &cfg).is_ok());
+    }
+
+    #[test]
+    fn yaw_sigma_shrinks_with_the_spread_of_the_pairs() {
+        // 8 pairs with 6 cm per axis, on a circle of radius r: σ_yaw = σ / (r √8)
+        let sigma_of = |r: f64| {
+            let pairs: Vec<WeightedPair> = (0..8)
+                .map(|k| {
+                    let a = k as f64 * std::f64::consts::TAU / 8.0;
+                    let p = nalgebra::Point3::new(r * a.cos(), r * a.sin(), 0.0);
+                    WeightedPair {
+                        p_prior: p,
+                        p_query: p,
+                        weight: 1.0 / 0.06f64.powi(2),
+                    }
+                })
+                .collect();
+            yaw_sigma_deg(&pairs, &Isometry3::identity())
+        };
+        let expected = (0.06 / 8.0f64.sqrt()).to_degrees();
+        assert!((sigma_of(1.0) - expected).abs() < 1e-9 * expected.max(1.0));
+        assert!(sigma_of(3.0) < sigma_of(1.0) / 2.9);
     }
 
     #[test]
