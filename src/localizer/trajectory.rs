@@ -622,9 +622,8 @@ mod tests {
         let mut config = OdometryNoiseConfig::default();
         let model = step_information(&step, &config);
         assert_eq!(model, odometry_information(0.4, 0.0, &config));
-        let cov = Matrix6::from_diagonal(&nalgebra::Vector6::new(
-            1e-8, 1e-8, 4e-8, 1e-6, 1e-6, 4e-6,
-        ));
+        let cov =
+            Matrix6::from_diagonal(&nalgebra::Vector6::new(1e-8, 1e-8, 4e-8, 1e-6, 1e-6, 4e-6));
         step.reported_cov = Some(cov);
         let reported = step_information(&step, &config);
         assert!((reported[(2, 2)] - 2.5e7).abs() < 1e-3);

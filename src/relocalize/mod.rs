@@ -33,7 +33,7 @@ pub use result::{
     Tolerances,
 };
 
-use crate::align::{information_matrix, tilt_aware_information, Dof};
+use crate::align::{information_matrix, tilt_aware_information, Dof, WeightedPair};
 use segloc_clipper::ClipperError;
 use segloc_maps::{MapError, ObjectMap};
 use std::time::Instant;
@@ -241,14 +241,7 @@ fn accept(
     dof: Dof,
     config: &RelocalizeConfig,
 ) -> Accepted {
-    let pairs: Vec<_> = best
-        .inliers
-        .iter()
-        .map(|&(i, j)| {
-            let a = segloc_clipper::Association { prior: i, query: j };
-            hypotheses::pair_of(&a, prior, query)
-        })
-        .collect();
+    let pairs = inlier_pairs(best, prior, query);
     let inliers = best
         .inliers
         .iter()
@@ -272,15 +265,18 @@ fn accept(
 
 /// [`verify::yaw_sigma_deg`] of a hypothesis' inliers.
 fn yaw_sigma_of(h: &Hypothesis, prior: &PreparedMap, query: &PreparedMap) -> f64 {
-    let pairs: Vec<_> = h
-        .inliers
+    verify::yaw_sigma_deg(&inlier_pairs(h, prior, query), &h.prior_from_query)
+}
+
+/// The landmark pairs of a hypothesis' inliers.
+fn inlier_pairs(h: &Hypothesis, prior: &PreparedMap, query: &PreparedMap) -> Vec<WeightedPair> {
+    h.inliers
         .iter()
         .map(|&(i, j)| {
             let a = segloc_clipper::Association { prior: i, query: j };
             hypotheses::pair_of(&a, prior, query)
         })
-        .collect();
-    verify::yaw_sigma_deg(&pairs, &h.prior_from_query)
+        .collect()
 }
 
 fn ms_since(t: Instant) -> f64 {
