@@ -202,7 +202,7 @@ pub fn frame_to_json_line(frame: &StreamFrame) -> String {
     }
     if let Some(c) = &frame.step_cov {
         s.push_str(", \"step_cov\": ");
-        push_array(&mut s, &upper_triangle6(c));
+        push_array(&mut s, &crate::landmark::upper_triangle6(c));
     }
     s.push('}');
     s
@@ -380,7 +380,9 @@ fn parse_frame(object: &Map<String, Value>) -> Result<(StreamFrame, Option<f64>)
         None => None,
     };
     let step_cov = match optional(object, "step_cov") {
-        Some(v) => Some(from_upper_triangle6(&numbers::<21>(v, "step_cov")?)),
+        Some(v) => Some(crate::landmark::from_upper_triangle6(&numbers::<21>(
+            v, "step_cov",
+        )?)),
         None => None,
     };
     let frame = StreamFrame {
@@ -519,29 +521,6 @@ fn check_frame(frame: &StreamFrame) -> Result<(), LineError> {
         }
     }
     Ok(())
-}
-
-/// The upper triangle of a symmetric 6 × 6 matrix, row by row (21 numbers).
-fn upper_triangle6(c: &Matrix6<f64>) -> Vec<f64> {
-    (0..6)
-        .flat_map(|r| (r..6).map(move |col| (r, col)))
-        .map(|(r, col)| c[(r, col)])
-        .collect()
-}
-
-/// The symmetric 6 × 6 matrix of an upper triangle written row by row
-/// ([`upper_triangle6`]'s inverse).
-fn from_upper_triangle6(values: &[f64; 21]) -> Matrix6<f64> {
-    let mut c = Matrix6::zeros();
-    let mut k = 0;
-    for r in 0..6 {
-        for col in r..6 {
-            c[(r, col)] = values[k];
-            c[(col, r)] = values[k];
-            k += 1;
-        }
-    }
-    c
 }
 
 /// Check frames for writing: at least one, each [checked](check_frame), times strictly

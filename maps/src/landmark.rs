@@ -1,6 +1,6 @@
 //! One boulder landmark of an object map.
 
-use nalgebra::{Matrix3, Point3};
+use nalgebra::{Matrix3, Matrix6, Point3};
 use serde::{Deserialize, Serialize};
 
 /// A boulder landmark: a 3D centroid with its uncertainty and provenance.
@@ -159,6 +159,34 @@ pub fn upper_triangle(c: &Matrix3<f64>) -> [f64; 6] {
 /// ([`upper_triangle`]'s inverse).
 pub fn from_upper_triangle([xx, xy, xz, yy, yz, zz]: [f64; 6]) -> Matrix3<f64> {
     Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
+}
+
+/// The upper triangle of a symmetric 6 × 6 matrix, row by row (21 numbers).
+pub fn upper_triangle6(c: &Matrix6<f64>) -> [f64; 21] {
+    let mut out = [0.0; 21];
+    let mut k = 0;
+    for r in 0..6 {
+        for col in r..6 {
+            out[k] = c[(r, col)];
+            k += 1;
+        }
+    }
+    out
+}
+
+/// The symmetric 6 × 6 matrix of an upper triangle written row by row
+/// ([`upper_triangle6`]'s inverse).
+pub fn from_upper_triangle6(values: &[f64; 21]) -> Matrix6<f64> {
+    let mut c = Matrix6::zeros();
+    let mut k = 0;
+    for r in 0..6 {
+        for col in r..6 {
+            c[(r, col)] = values[k];
+            c[(col, r)] = values[k];
+            k += 1;
+        }
+    }
+    c
 }
 
 #[cfg(test)]

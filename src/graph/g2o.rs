@@ -6,7 +6,6 @@
 //! order without rescaling, as GTSAM's `readG2o` does, so that costs match GTSAM's.
 
 use super::file::{parse_fields, LineError, Tokens};
-use super::toro::upper_to_matrix;
 use nalgebra::{Isometry3, Matrix6, Quaternion, Translation3, UnitQuaternion};
 
 /// Parses the fields after `VERTEX_SE3:QUAT`.
@@ -30,7 +29,7 @@ pub fn parse_edge(
         i,
         j,
         pose_from_fields(&v)?,
-        swap_blocks(&upper_to_matrix(&upper)),
+        swap_blocks(&segloc_maps::landmark::from_upper_triangle6(&upper)),
     ))
 }
 

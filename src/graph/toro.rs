@@ -34,7 +34,7 @@ pub fn parse_edge(
         i,
         j,
         pose_from_xyzrpy(&v),
-        permute_information(&upper_to_matrix(&upper), false),
+        permute_information(&segloc_maps::landmark::from_upper_triangle6(&upper), false),
     ))
 }
 
@@ -64,20 +64,6 @@ fn pose_from_xyzrpy(v: &[f64; 6]) -> Isometry3<f64> {
         Translation3::new(v[0], v[1], v[2]),
         se3::rotation_from_rpy(v[3], v[4], v[5]),
     )
-}
-
-/// Symmetric matrix from its 21 upper-triangular entries, row by row.
-pub(crate) fn upper_to_matrix(upper: &[f64; 21]) -> Matrix6<f64> {
-    let mut m = Matrix6::zeros();
-    let mut k = 0;
-    for a in 0..6 {
-        for b in a..6 {
-            m[(a, b)] = upper[k];
-            m[(b, a)] = upper[k];
-            k += 1;
-        }
-    }
-    m
 }
 
 /// TORO order → GTSAM order, or back when `to_toro`.
