@@ -13,7 +13,9 @@
 use nalgebra::Point3;
 
 use crate::association::{exp_neg, PairTest};
-use crate::{Association, ClipperError, ConsistencyGraph, Invariant};
+use crate::{
+    choose_strategy, Association, BuildStrategy, ClipperError, ConsistencyGraph, Invariant,
+};
 
 /// Per-point position variances (m²) of both maps, and the multiplier of the standard
 /// deviation.
@@ -90,11 +92,31 @@ impl ConsistencyGraph {
             }
         }
         let wide = widened(invariant, pair.epsilon_max, pair.epsilon_z_max);
-        let candidates = Self::build(prior, query, associations, &wide)?;
-        Ok((
-            pair.filter(&candidates, prior, query, associations),
-            summary,
-        ))
+        let graph = match choose_strategy(prior, query, associations, &wide)? {
+            // the join finds the candidates within the widest thresholds and decides each
+            // with its own in the same pass
+            BuildStrategy::Join => {
+                crate::build::join_deciding(prior, query, associations, &wide, &pair)?
+            }
+            _ => {
+                let candidates = Self::build_with(
+                    prior,
+                    query,
+                    associations,
+                    &wide,
+                    BuildStrategy::PairwiseScan,
+                )?;
+                pair.filter(&candidates, prior, query, associations)
+            }
+        };
+        Ok((graph, summary))
+    }
+}
+
+impl crate::build::PairDecision for PairThresholds {
+    #[inline]
+    fn decide(&self, u: u32, v: u32, c: f64, cz: f64, _x: f32) -> Option<f32> {
+        self.exponent(u as usize, v as usize, c, cz)
     }
 }
 
@@ -326,9 +348,18 @@ impl PairThresholds {
         let (a, b) = if a.prior < b.prior { (a, b) } else { (b, a) };
         let mp = t.measure(&prior[a.prior as usize], &prior[b.prior as usize]);
         let mq = t.measure(&query[a.query as usize], &query[b.query as usize]);
-        // each threshold is the floor scaled by s; the weight's width scales with it
-        let threshold = self.threshold(u, self.var[v]);
         let c = (mp.dist - mq.dist).abs();
+        let cz = (mp.dz - mq.dz).abs();
+        self.exponent(u, v, c, cz).map(exp_neg)
+    }
+
+    /// The weight exponent of associations `u` and `v` whose invariants differ by `c`
+    /// (distance / horizontal distance) and `cz` (height), under their own thresholds:
+    /// each threshold is the floor scaled by `s`, and the weight's width scales with it.
+    #[inline]
+    fn exponent(&self, u: usize, v: usize, c: f64, cz: f64) -> Option<f32> {
+        let t = &self.test;
+        let threshold = self.threshold(u, self.var[v]);
         if c >= threshold {
             return None;
         }
@@ -336,14 +367,13 @@ impl PairThresholds {
         let mut x = c * c * t.inv_two_sigma_sq / (s * s);
         if t.gravity {
             let threshold_z = self.threshold_z(u, self.var_z[v]);
-            let cz = (mp.dz - mq.dz).abs();
             if cz >= threshold_z {
                 return None;
             }
             let sz = threshold_z / t.epsilon_z;
             x += cz * cz * t.inv_two_sigma_z_sq / (sz * sz);
         }
-        Some(exp_neg(x as f32))
+        Some(x as f32)
     }
 
     /// The edges of `candidates` (built with the widest thresholds) that pass their own
@@ -478,6 +508,19 @@ mod tests {
             }
         }
         assert_eq!(graph, ConsistencyGraph::from_edge_list(assoc.len(), &edges));
+        // both builders: the join deciding each pair in one pass, the scan then the filter
+        let wide = widened(&inv(), pair.epsilon_max, pair.epsilon_z_max);
+        let joined = crate::build::join_deciding(&prior, &query, &assoc, &wide, &pair).unwrap();
+        let scanned = ConsistencyGraph::build_with(
+            &prior,
+            &query,
+            &assoc,
+            &wide,
+            BuildStrategy::PairwiseScan,
+        )
+        .unwrap();
+        assert_eq!(joined, graph);
+        assert_eq!(pair.filter(&scanned, &prior, &query, &assoc), graph);
     }
 
     #[test]

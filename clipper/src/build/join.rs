@@ -18,6 +18,29 @@ use crate::{Association, ConsistencyGraph};
 /// Largest dense (prior x query) lookup table, in entries.
 const DENSE_TABLE_LIMIT: usize = 1 << 24;
 
+/// Window entries (query pairs in the cells of a prior pair's distance window) up to which
+/// the 4-DOF join tests every entry rather than searching each cell for the height window:
+/// below it a search costs more than the tests it saves.
+const LINEAR_SCAN_ENTRIES: usize = 16;
+
+/// Decides an association pair the join found within its own (widest) thresholds.
+pub(crate) trait PairDecision: Sync {
+    /// The weight exponent of associations `u` and `v` (ids), whose invariants differ by
+    /// `c` (distance, or horizontal distance) and `cz` (height difference; 0 for 6-DOF),
+    /// given `x`, the exponent under the join's test; `None` to drop the pair.
+    fn decide(&self, u: u32, v: u32, c: f64, cz: f64, x: f32) -> Option<f32>;
+}
+
+/// The join's own test decides (the plain build).
+struct AsJoined;
+
+impl PairDecision for AsJoined {
+    #[inline]
+    fn decide(&self, _u: u32, _v: u32, _c: f64, _cz: f64, x: f32) -> Option<f32> {
+        Some(x)
+    }
+}
+
 /// Association id of a (compact prior, compact query) pair.
 enum Lookup {
     Dense { n_query: usize, ids: Vec<u32> },
@@ -85,10 +108,10 @@ impl UsedPoints {
 
 /// Builds the consistency graph by joining the two maps' sorted pair lists.
 ///
-/// Work is organised by prior point `a`: one task emits the complete rows (both edge
-/// directions) of every association of `a`, visiting the other prior points `b` in
-/// ascending order, so rows come out sorted by block without any global transposition.
-/// Rows are generated in *rank space* (associations sorted by (prior, query)) and relabelled
+/// Work is organised by prior point `a`: one task emits the upper rows (neighbours of
+/// higher rank) of every association of `a`, visiting the prior points `b > a` in ascending
+/// order, so each prior pair is joined once; the lower rows are the mirror, placed in one
+/// sequential pass that keeps every row sorted. Rows are generated in *rank space* (associations sorted by (prior, query)) and relabelled
 /// to association ids at the end when the list was not already sorted.
 pub(crate) fn build(
     prior: &[Point3<f64>],
@@ -99,6 +122,26 @@ pub(crate) fn build(
     build_with_table_limit(prior, query, associations, test, DENSE_TABLE_LIMIT)
 }
 
+/// [`build`] whose candidate pairs (within `test`'s thresholds) are kept and weighed by
+/// `decision`: one pass for a graph whose every pair has its own thresholds, all within
+/// `test`'s.
+pub(crate) fn build_deciding(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    associations: &[Association],
+    test: &PairTest,
+    decision: &impl PairDecision,
+) -> ConsistencyGraph {
+    join_graph(
+        prior,
+        query,
+        associations,
+        test,
+        DENSE_TABLE_LIMIT,
+        decision,
+    )
+}
+
 /// [`build`] with the largest dense lookup table given (above it a hash map is used).
 pub(crate) fn build_with_table_limit(
     prior: &[Point3<f64>],
@@ -106,6 +149,17 @@ pub(crate) fn build_with_table_limit(
     associations: &[Association],
     test: &PairTest,
     dense_limit: usize,
+) -> ConsistencyGraph {
+    join_graph(prior, query, associations, test, dense_limit, &AsJoined)
+}
+
+fn join_graph(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    associations: &[Association],
+    test: &PairTest,
+    dense_limit: usize,
+    decision: &impl PairDecision,
 ) -> ConsistencyGraph {
     let m = associations.len();
     let used_p = UsedPoints::new(prior.len(), associations.iter().map(|a| a.prior));
@@ -140,6 +194,8 @@ pub(crate) fn build_with_table_limit(
         test,
         lookup: &lookup,
         block_start: &block_start,
+        id_of_rank: &id_of_rank,
+        decision,
     };
     let in_rank_space = csr_from_blocks(ctx.row_blocks(), m);
     if id_of_rank.iter().enumerate().all(|(r, &id)| r as u32 == id) {
@@ -174,26 +230,57 @@ impl Lookup {
     }
 }
 
-/// The graph (rank space) whose rows are those of `blocks` in order, for `m` associations.
+/// The graph (rank space) of `m` associations whose upper rows (neighbours of higher
+/// rank) are those of `blocks` in order: each row is its lower neighbours (the mirror of
+/// the upper rows before it, which arrive in ascending order) then its upper ones.
 fn csr_from_blocks(blocks: Vec<RowBlock>, m: usize) -> ConsistencyGraph {
-    let total: usize = blocks.iter().map(|b| b.neighbors.len()).sum();
-    let mut offsets = Vec::with_capacity(m + 1);
-    offsets.push(0usize);
-    let mut neighbors = Vec::with_capacity(total);
-    let mut weights = Vec::with_capacity(total);
-    for b in blocks {
-        for c in b.row_counts {
-            let last = offsets[offsets.len() - 1];
-            offsets.push(last + c as usize);
+    let mut degree = vec![0usize; m + 1];
+    let mut row = 0usize;
+    for b in &blocks {
+        for &c in &b.row_counts {
+            degree[row + 1] += c as usize;
+            row += 1;
         }
-        neighbors.extend_from_slice(&b.neighbors);
-        weights.extend_from_slice(&b.exponents);
+        for &v in &b.neighbors {
+            degree[v as usize + 1] += 1;
+        }
+    }
+    let mut offsets = degree;
+    for r in 0..m {
+        offsets[r + 1] += offsets[r];
+    }
+    let total = offsets[m];
+    let mut neighbors = vec![0u32; total];
+    let mut weights = vec![0f32; total];
+    // next free slot of every row: lower entries fill from the row's start
+    let mut cursor: Vec<usize> = offsets[..m].to_vec();
+    let mut u = 0usize;
+    for b in &blocks {
+        let mut k = 0usize;
+        for &c in &b.row_counts {
+            let upper = k..k + c as usize;
+            for (&v, &x) in b.neighbors[upper.clone()]
+                .iter()
+                .zip(&b.exponents[upper.clone()])
+            {
+                let slot = &mut cursor[v as usize];
+                neighbors[*slot] = u as u32;
+                weights[*slot] = x;
+                *slot += 1;
+            }
+            // every lower neighbour of `u` has a lower rank, so is already placed
+            let at = cursor[u];
+            neighbors[at..at + c as usize].copy_from_slice(&b.neighbors[upper.clone()]);
+            weights[at..at + c as usize].copy_from_slice(&b.exponents[upper]);
+            k += c as usize;
+            u += 1;
+        }
     }
     exponents_to_weights(&mut weights);
     ConsistencyGraph::from_csr_parts(offsets, neighbors, weights)
 }
 
-/// Complete rows of a run of consecutive prior blocks.
+/// Upper rows of a run of consecutive prior blocks.
 #[derive(Default)]
 struct RowBlock {
     row_counts: Vec<u32>,
@@ -201,69 +288,68 @@ struct RowBlock {
     exponents: Vec<f32>,
 }
 
-struct JoinContext<'a> {
+struct JoinContext<'a, D> {
     /// Used prior points, by compact index.
     prior: &'a [Point3<f64>],
     query_pairs: &'a QueryPairs,
     test: &'a PairTest,
     lookup: &'a Lookup,
     block_start: &'a [usize],
+    /// Association id of each rank.
+    id_of_rank: &'a [u32],
+    /// Keeps and weighs each candidate pair.
+    decision: &'a D,
 }
 
-impl JoinContext<'_> {
-    /// The rows of every association, in rank order: runs of consecutive prior blocks in
-    /// parallel (about eight per thread).
+impl<D: PairDecision> JoinContext<'_, D> {
+    /// The upper rows (neighbours of higher rank) of every association, in rank order:
+    /// runs of consecutive prior blocks in parallel, about eight per thread and of about
+    /// equal work (block `a` pairs with the blocks after it).
     fn row_blocks(&self) -> Vec<RowBlock> {
-        let np = self.prior.len();
-        let n_chunks = (rayon::current_num_threads() * 8).clamp(1, np.max(1));
-        let chunk_len = np.div_ceil(n_chunks).max(1);
-        (0..np)
-            .step_by(chunk_len)
-            .collect::<Vec<_>>()
+        super::balanced_row_chunks(self.prior.len())
             .into_par_iter()
-            .map(|a0| {
+            .map(|(a0, a1)| {
                 let mut out = RowBlock::default();
                 let mut scratch = Vec::new();
-                for a in a0..(a0 + chunk_len).min(np) {
-                    self.rows_of_prior(a, &mut scratch, &mut out);
+                for a in a0..a1 {
+                    self.upper_rows_of_prior(a, &mut scratch, &mut out);
                 }
                 out
             })
             .collect()
     }
 
-    /// Appends the rows of every association of prior point `a` (compact) to `out`.
-    fn rows_of_prior(&self, a: usize, scratch: &mut Vec<(u32, u32, f32)>, out: &mut RowBlock) {
+    /// Appends the upper rows of every association of prior point `a` (compact) to `out`:
+    /// its neighbours among the associations of the prior points after `a`, each prior
+    /// pair measured and joined once.
+    fn upper_rows_of_prior(
+        &self,
+        a: usize,
+        scratch: &mut Vec<(u32, u32, f32)>,
+        out: &mut RowBlock,
+    ) {
         let (r0, r1) = (self.block_start[a], self.block_start[a + 1]);
         if r0 == r1 {
             return;
         }
         scratch.clear();
         let a32 = a as u32;
-        for b in 0..self.prior.len() {
-            if b == a {
-                continue;
-            }
+        for b in a + 1..self.prior.len() {
             let b32 = b as u32;
-            if a < b {
-                // association pairs ((a, j), (b, l)): row (a, j), neighbour (b, l)
-                let ma = self.test.measure(&self.prior[a], &self.prior[b]);
-                self.for_each_match(ma, |j, l, x| {
-                    if let (Some(ru), Some(rv)) = (self.lookup.get(a32, j), self.lookup.get(b32, l))
-                    {
-                        scratch.push((ru - r0 as u32, rv, x));
-                    }
-                });
-            } else {
-                // association pairs ((b, j), (a, l)): row (a, l), neighbour (b, j)
-                let ma = self.test.measure(&self.prior[b], &self.prior[a]);
-                self.for_each_match(ma, |j, l, x| {
-                    if let (Some(ru), Some(rv)) = (self.lookup.get(a32, l), self.lookup.get(b32, j))
-                    {
-                        scratch.push((ru - r0 as u32, rv, x));
-                    }
-                });
-            }
+            let ma = self.test.measure(&self.prior[a], &self.prior[b]);
+            // association pairs ((a, j), (b, l)): row (a, j), neighbour (b, l)
+            self.for_each_match(ma, |j, l, mb, x| {
+                let (Some(ru), Some(rv)) = (self.lookup.get(a32, j), self.lookup.get(b32, l))
+                else {
+                    return;
+                };
+                let c = (ma.dist - mb.dist).abs();
+                let cz = (ma.dz - mb.dz).abs();
+                let (u, v) = (self.id_of_rank[ru as usize], self.id_of_rank[rv as usize]);
+                if let Some(x) = self.decision.decide(u, v, c, cz, x) {
+                    scratch.push((ru - r0 as u32, rv, x));
+                }
+            });
         }
         // stable counting sort by row keeps the ascending-b order; then sort within rows
         let rows = r1 - r0;
@@ -291,10 +377,10 @@ impl JoinContext<'_> {
         }
     }
 
-    /// Calls `f(j, l, exponent)` for every ordered query pair `(j, l)` consistent with the
-    /// prior measure `ma`.
+    /// Calls `f(j, l, measure, exponent)` for every ordered query pair `(j, l)` consistent
+    /// with the prior measure `ma`.
     #[inline]
-    fn for_each_match(&self, ma: PairMeasure, mut f: impl FnMut(u32, u32, f32)) {
+    fn for_each_match(&self, ma: PairMeasure, mut f: impl FnMut(u32, u32, PairMeasure, f32)) {
         let test = self.test;
         let qp = self.query_pairs;
         let n_cells = qp.cell_start.len().saturating_sub(1) as i64;
@@ -319,10 +405,19 @@ impl JoinContext<'_> {
                 dz: qp.dz[k],
             };
             if let Some(x) = test.exponent(ma, mb) {
-                f(qp.j[k], qp.l[k], x);
+                f(qp.j[k], qp.l[k], mb, x);
             }
         };
         if test.gravity {
+            let (s, e) = (
+                qp.cell_start[c_lo as usize] as usize,
+                qp.cell_start[c_hi as usize + 1] as usize,
+            );
+            if e - s <= LINEAR_SCAN_ENTRIES {
+                // a few entries (a small query): test them all, no search
+                (s..e).for_each(&mut visit);
+                return;
+            }
             let slack_z = 1e-9 * test.epsilon_z + 1e-12 * ma.dz.abs();
             let zlo = ma.dz - test.epsilon_z - slack_z;
             let zhi = ma.dz + test.epsilon_z + slack_z;

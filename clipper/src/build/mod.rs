@@ -7,7 +7,7 @@
 //! - [`scan`]: tests every association pair with a vectorised prefilter (sparse lists).
 
 mod join;
-pub(crate) use join::UsedPoints;
+pub(crate) use join::{PairDecision, UsedPoints};
 mod scan;
 #[cfg(target_arch = "x86_64")]
 mod scan_avx2;
@@ -76,6 +76,27 @@ impl ConsistencyGraph {
             _ => scan::build(prior, query, associations, &test, scan::Kernel::detect()),
         })
     }
+}
+
+/// The join build whose candidates (within `invariant`'s thresholds) `decision` keeps and
+/// weighs (see [`PairDecision`]); the invariant's weights are replaced by the decision's
+/// exponents.
+pub(crate) fn join_deciding(
+    prior: &[Point3<f64>],
+    query: &[Point3<f64>],
+    associations: &[Association],
+    invariant: &Invariant,
+    decision: &impl PairDecision,
+) -> Result<ConsistencyGraph, ClipperError> {
+    let test = PairTest::new(invariant)?;
+    validate_input(prior, query, associations)?;
+    Ok(join::build_deciding(
+        prior,
+        query,
+        associations,
+        &test,
+        decision,
+    ))
 }
 
 /// The builder [`BuildStrategy::Auto`] would use for this problem (never `Auto`).
