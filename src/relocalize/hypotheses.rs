@@ -47,7 +47,7 @@ pub fn generate_hypotheses(
         alignment_ms: 0.0,
     };
     let started = Instant::now();
-    let first = solve_clique(graph, config, true);
+    let (first, graph_cores) = solve_clique(graph, config, true);
     set.clique_ms += ms_since(started);
     set.largest_clique = first.len();
     if first.len() < config.clique.min_clique {
@@ -81,7 +81,16 @@ pub fn generate_hypotheses(
     // ambiguous (see `VerificationConfig::max_runner_up_ratio`); only vertices whose core
     // number allows a clique that large can be in one.
     let min_size = config.clique.min_clique.max(first.len().div_ceil(2));
-    let (rest, rest_to_graph) = graph.induced_subgraph(&keep);
+    // The (min_size − 1)-core of the unexplained associations lies within the graph's own
+    // (min_size − 1)-core (removing vertices never raises a core number), so the graph's
+    // core numbers, already known, cut the copy down before the rest's are computed: the
+    // same vertices remain.
+    let candidate: Vec<bool> = keep
+        .iter()
+        .zip(&graph_cores)
+        .map(|(&unexplained, &core)| unexplained && core as usize + 1 >= min_size)
+        .collect();
+    let (rest, rest_to_graph) = graph.induced_subgraph(&candidate);
     let core_keep: Vec<bool> = core_numbers(&rest)
         .iter()
         .map(|&core| core as usize + 1 >= min_size)
@@ -204,7 +213,12 @@ pub fn pair_of(a: &Association, prior: &PreparedMap, query: &PreparedMap) -> Wei
 /// to them is usually tiny and searched exactly (which certifies the answer); when it is
 /// too large for that and the seeded search found nothing worth a hypothesis, the
 /// densest-clique relaxation has the last word.
-fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig, relax: bool) -> Vec<u32> {
+/// The largest clique found, and the graph's core numbers (the rival search reuses them).
+fn solve_clique(
+    graph: &ConsistencyGraph,
+    config: &RelocalizeConfig,
+    relax: bool,
+) -> (Vec<u32>, Vec<u32>) {
     let limits = MaxCliqueLimits {
         max_vertices: config.clique.exact_max_vertices,
         max_nodes: config.clique.exact_max_nodes,
@@ -217,19 +231,20 @@ fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig, relax: bool
     };
     let mut best = segloc_clipper::edge_seeded_clique(graph, &search);
     let lower_bound = best.len() as u32;
-    let keep: Vec<bool> = core_numbers(graph)
+    let cores = core_numbers(graph);
+    let keep: Vec<bool> = cores
         .iter()
         .map(|&core| core >= lower_bound.max(1))
         .collect();
     let (pruned, to_graph) = graph.induced_subgraph(&keep);
     if pruned.num_vertices() <= best.len() {
-        return best;
+        return (best, cores);
     }
     let found = match max_clique(&pruned, &limits) {
         Ok(exact) => exact,
         // The relaxation is the last resort: when the seeded search found nothing worth a
         // hypothesis.
-        Err(_) if !relax || best.len() >= config.clique.min_clique => return best,
+        Err(_) if !relax || best.len() >= config.clique.min_clique => return (best, cores),
         Err(_) => {
             let relaxation = DensestCliqueConfig {
                 seed: config.clique.seed,
@@ -248,7 +263,7 @@ fn solve_clique(graph: &ConsistencyGraph, config: &RelocalizeConfig, relax: bool
             .collect();
         best.sort_unstable();
     }
-    best
+    (best, cores)
 }
 
 /// Standard deviation (m) of points along the minor axis of their horizontal scatter.
