@@ -92,6 +92,9 @@ pub struct GridTrial {
     pub rover_error_m: Option<f64>,
     /// Rotation error (degrees), when accepted.
     pub rotation_error_deg: Option<f64>,
+    /// The rotation error's tilt (degrees): the angle by which it turns the vertical, the
+    /// part a gravity-aligned prior could have pinned (the rest is yaw).
+    pub tilt_error_deg: Option<f64>,
     /// RMS residual (m) of the best hypothesis' inliers.
     pub rmse_m: f64,
     /// Inliers of the best hypothesis.
@@ -387,6 +390,7 @@ fn run_query(
         translation_error_m: None,
         rover_error_m: None,
         rotation_error_deg: None,
+        tilt_error_deg: None,
         rmse_m: f64::NAN,
         inliers: 0,
         refusal: None,
@@ -422,6 +426,8 @@ fn run_query(
         trial.translation_error_m = Some(t);
         trial.rotation_error_deg = Some(r);
         let error = estimate * truth.inverse();
+        let up = nalgebra::Vector3::z();
+        trial.tilt_error_deg = Some((error.rotation * up).angle(&up).to_degrees());
         trial.rover_error_m = Some(
             world
                 .detections
