@@ -99,6 +99,9 @@ pub struct GridTrial {
     pub rmse_m: f64,
     /// Inliers of the best hypothesis.
     pub inliers: usize,
+    /// The best hypothesis' yaw standard deviation (degrees) from its inliers' covariances,
+    /// as the yaw gate reads it (grid priors).
+    pub yaw_sigma_deg: Option<f64>,
     /// Refusal reason (or input error), when not accepted.
     pub refusal: Option<String>,
     /// Landmarks of the query map.
@@ -393,6 +396,7 @@ fn run_query(
         tilt_error_deg: None,
         rmse_m: f64::NAN,
         inliers: 0,
+        yaw_sigma_deg: None,
         refusal: None,
         query_landmarks: query_map.len(),
         associations: 0,
@@ -420,6 +424,11 @@ fn run_query(
         .hypotheses
         .first()
         .map_or(0, |h| h.inlier_count);
+    trial.yaw_sigma_deg = answer
+        .diagnostics
+        .hypotheses
+        .first()
+        .and_then(|h| h.yaw_sigma_deg);
     trial.refusal = answer.refusal().map(|r| r.to_string());
     if let Some(estimate) = answer.prior_from_query().filter(|_| trial.accepted) {
         let (t, r) = transform_error(&estimate, truth);
