@@ -132,13 +132,7 @@ impl Relocalizer {
             consistency::build_graph(prior, &query, &associations, dof, &config.consistency)?;
         timings.graph_ms = ms_since(t);
         let tolerances = Tolerances::from_summary(&summary, &config.consistency);
-        let mut scaled = tolerances.scaled(config);
-        if let Some(grid) = scaled.as_mut() {
-            // wide (grid) tolerances: a wrong transform must not pass on chance inliers
-            let chance =
-                verify::chance_inliers(&prior.points, query.len(), grid.refine.inlier_threshold_m);
-            grid.verification.min_inliers = grid.verification.min_inliers.max(chance);
-        }
+        let scaled = self.scaled_config(&tolerances, &query);
         let config = scaled.as_ref().unwrap_or(config);
 
         // Graph → cliques → aligned and refined hypotheses.
@@ -184,6 +178,24 @@ impl Relocalizer {
                 timings,
             },
         })
+    }
+
+    /// The configuration scaled to widened (grid) tolerances, with the fewest inliers raised
+    /// to what a wrong transform collects by chance; `None` when the tolerances were not
+    /// widened (session maps).
+    fn scaled_config(
+        &self,
+        tolerances: &Tolerances,
+        query: &PreparedMap,
+    ) -> Option<RelocalizeConfig> {
+        let mut grid = tolerances.scaled(&self.config)?;
+        let chance = verify::chance_inliers(
+            &self.prior.points,
+            query.len(),
+            grid.refine.inlier_threshold_m,
+        );
+        grid.verification.min_inliers = grid.verification.min_inliers.max(chance);
+        Some(grid)
     }
 
     /// The refusal of a query map too small to fix a transform.
