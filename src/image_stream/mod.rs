@@ -150,9 +150,13 @@ impl ImageStream {
         time_s: f64,
         imu: ImuSample,
     ) -> Result<StreamOutput, ImageStreamError> {
-        let vo = self
-            .odometry
-            .process_with_gyro(left, right, time_s, imu.gyro_rover_rad_s);
+        let vo = self.odometry.process_with_imu(
+            left,
+            right,
+            time_s,
+            imu.gyro_rover_rad_s,
+            imu.gravity_rover,
+        );
         let gravity_rover = imu.gravity_rover;
         let odom_from_rover = self.rover_from_camera * vo.pose * self.rover_from_camera.inverse();
         let mut frame = StreamFrame::new(time_s, odom_from_rover);

@@ -14,6 +14,8 @@
 
 pub mod corners;
 pub mod error;
+pub mod gravity_tilt;
+pub mod keyframe;
 pub mod klt;
 pub mod lac_sequence;
 pub mod motion;
@@ -61,7 +63,13 @@ pub fn run_sequence(
                 });
             }
         }
-        results.push(vo.process_with_gyro(&left, &right, frame.time_s, frame.gyro_rover_rad_s));
+        results.push(vo.process_with_imu(
+            &left,
+            &right,
+            frame.time_s,
+            frame.gyro_rover_rad_s,
+            frame.gravity_rover,
+        ));
     }
     Ok(results)
 }

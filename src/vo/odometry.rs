@@ -10,6 +10,8 @@
 //!    adjustment on the pose graph's stereo factors (the oldest frame held).
 
 use super::corners::{cell_of, detect_corners, grid_size, CornerConfig};
+use super::gravity_tilt::{GravityAnchor, VoGravityConfig};
+use super::keyframe::{Keyframe, KeyframeConfig};
 use super::klt::{track, KltConfig};
 use super::motion::{
     estimate_motion, rotation_sigma_rad, Correspondence, MotionConfig, MotionEstimate,
@@ -46,6 +48,10 @@ pub struct VoConfig {
     pub window: WindowConfig,
     /// The gyro's part, when the frames carry its rates.
     pub gyro: VoGyroConfig,
+    /// Keyframe anchoring of the motion (see [`super::keyframe`]).
+    pub keyframe: KeyframeConfig,
+    /// The IMU's gravity as a roll–pitch anchor (see [`super::gravity_tilt`]).
+    pub gravity: VoGravityConfig,
 }
 
 /// How the odometry uses a gyro.
@@ -86,6 +92,8 @@ impl Default for VoConfig {
             motion: MotionConfig::default(),
             window: WindowConfig::default(),
             gyro: VoGyroConfig::default(),
+            keyframe: KeyframeConfig::default(),
+            gravity: VoGravityConfig::default(),
         }
     }
 }
@@ -117,6 +125,11 @@ impl VoConfig {
         if self.gyro.max_translation_jump_m.is_nan() || self.gyro.max_translation_jump_m <= 0.0 {
             return bad("gyro.max_translation_jump_m must be positive");
         }
+        if self.keyframe.max_frames == 0 || !(0.0..=1.0).contains(&self.keyframe.min_own_fraction) {
+            return bad(
+                "keyframe.max_frames must be positive, keyframe.min_own_fraction in [0, 1]",
+            );
+        }
         Ok(())
     }
 }
@@ -132,14 +145,15 @@ struct Motion {
     gyro_rotation: bool,
 }
 
-/// A tracked feature: where it is in the current left image and its point in the current
-/// left camera's frame.
+/// A tracked feature: where it is in the current left image, its point in the current
+/// left camera's frame and in the keyframe's.
 #[derive(Clone, Copy, Debug)]
 struct Feature {
     id: u64,
     x: f32,
     y: f32,
     p_camera: Point3<f64>,
+    p_key: Point3<f64>,
 }
 
 /// What one frame gave.
@@ -189,6 +203,10 @@ pub struct StereoOdometry {
     /// frame; `None` until [`StereoOdometry::set_gyro_mount`].
     gyro_mount: Option<UnitQuaternion<f64>>,
     previous_time_s: Option<f64>,
+    /// The keyframe the motion is measured against.
+    key: Keyframe,
+    /// The reference direction of gravity.
+    gravity: GravityAnchor,
 }
 
 /// The motion expected for a frame, before its images are seen.
@@ -219,6 +237,8 @@ impl StereoOdometry {
             frame_index: 0,
             gyro_mount: None,
             previous_time_s: None,
+            key: Keyframe::new(),
+            gravity: GravityAnchor::default(),
         })
     }
 
@@ -244,6 +264,20 @@ impl StereoOdometry {
         right: &GrayImage,
         time_s: f64,
         gyro_rover_rad_s: Option<Vector3<f64>>,
+    ) -> FrameResult {
+        self.process_with_imu(left, right, time_s, gyro_rover_rad_s, None)
+    }
+
+    /// [`StereoOdometry::process_with_gyro`] with the IMU's gravity in the rover frame too:
+    /// the roll and pitch are then anchored to it (see [`super::gravity_tilt`]; the mount
+    /// of [`StereoOdometry::set_gyro_mount`] moves it into the camera's frame).
+    pub fn process_with_imu(
+        &mut self,
+        left: &GrayImage,
+        right: &GrayImage,
+        time_s: f64,
+        gyro_rover_rad_s: Option<Vector3<f64>>,
+        gravity_rover: Option<Vector3<f64>>,
     ) -> FrameResult {
         let start = Instant::now();
         let mut lap = start;
@@ -274,6 +308,11 @@ impl StereoOdometry {
         }
         self.replenish(&pyramid, &right, &mut stages);
         lap = Instant::now();
+        let own = self
+            .features
+            .iter()
+            .filter(|f| f.id < self.key.first_later_id)
+            .count();
         let observations: Vec<(u64, Vector3<f64>, Point3<f64>)> = self
             .features
             .iter()
@@ -294,7 +333,9 @@ impl StereoOdometry {
         ) {
             self.first_from_camera = refined;
         }
+        self.anchor_tilt(gravity_rover);
         stages.window_ms = lap_ms(&mut lap);
+        self.next_keyframe(lost, own);
         self.previous = Some(pyramid);
         self.frame_index += 1;
         FrameResult {
@@ -313,6 +354,56 @@ impl StereoOdometry {
             gyro_rotation,
             time_ms: start.elapsed().as_secs_f64() * 1e3,
             stages,
+        }
+    }
+
+    /// Turns the pose's tilt toward gravity's reference direction (when gravity and the
+    /// mount are known and the anchor is on), and the window and keyframe with it.
+    fn anchor_tilt(&mut self, gravity_rover: Option<Vector3<f64>>) {
+        let (Some(g), Some(rover_from_camera)) = (gravity_rover, self.gyro_mount) else {
+            return;
+        };
+        if !self.config.gravity.enabled {
+            return;
+        }
+        let g_camera = rover_from_camera.inverse() * g;
+        let anchored =
+            self.gravity
+                .correct(&self.config.gravity, &self.first_from_camera, &g_camera);
+        // the window and the keyframe turn with the frame, so the next refinement (which
+        // holds the window's oldest frame) and the next motion keep the correction
+        let correction = anchored * self.first_from_camera.inverse();
+        self.window.correct(&correction);
+        self.key.first_from_key = correction * self.key.first_from_key;
+        self.first_from_camera = anchored;
+    }
+
+    /// After a frame: makes it the keyframe when one is due (its points become every
+    /// feature's keyframe points), else counts it.
+    fn next_keyframe(&mut self, lost: bool, own: usize) {
+        if self
+            .key
+            .due(&self.config.keyframe, lost, own, self.features.len())
+        {
+            self.key = Keyframe {
+                first_from_key: self.first_from_camera,
+                frames: 0,
+                first_later_id: self.next_id,
+            };
+            for f in &mut self.features {
+                f.p_key = f.p_camera;
+            }
+        } else {
+            self.key.frames += 1;
+        }
+    }
+
+    /// The prediction of this frame's motion against the keyframe (`curr_from_key`), given
+    /// the prediction against the previous frame and the previous frame's `prev_from_key`.
+    fn anchored(prediction: &Prediction, prev_from_key: &Isometry3<f64>) -> Prediction {
+        Prediction {
+            curr_from_prev: prediction.curr_from_prev * prev_from_key,
+            gyro_rotation: prediction.gyro_rotation.map(|r| r * prev_from_key.rotation),
         }
     }
 
@@ -404,20 +495,28 @@ impl StereoOdometry {
             .with_min_len(8)
             .map(|m| m.and_then(|(x, y)| match_point(curr.base(), right, x, y, stereo)))
             .collect();
+        // the motion is measured against the keyframe's points (the previous frame's when
+        // it is the keyframe)
+        let prev_from_key = if self.config.keyframe.enabled {
+            self.key.key_from(&self.first_from_camera).inverse()
+        } else {
+            Isometry3::identity()
+        };
         let mut kept = Vec::new();
         let mut correspondences = Vec::new();
         for ((f, m), disparity) in self.features.iter().zip(moved).zip(disparities) {
             let Some((x, y)) = m else { continue };
             let u_right = disparity.map_or(f64::NAN, |d| (x - d) as f64);
             correspondences.push(Correspondence {
-                p_prev: f.p_camera,
+                p_prev: f.p_key,
                 uv: Vector3::new(x as f64, u_right, y as f64),
             });
             kept.push((*f, x, y, disparity));
         }
         let tracked = kept.len();
         stages.stereo_ms = lap_ms(&mut lap);
-        let (estimate, gyro_rotation) = self.estimate_checked(&correspondences, prediction);
+        let anchored = Self::anchored(prediction, &prev_from_key);
+        let (estimate, gyro_rotation) = self.estimate_checked(&correspondences, &anchored);
         self.features.clear();
         if let Some(m) = &estimate {
             for ((f, x, y, disparity), inlier) in kept.into_iter().zip(&m.inliers) {
@@ -431,12 +530,14 @@ impl StereoOdometry {
                         x,
                         y,
                         p_camera: Point3::from(p),
+                        p_key: f.p_key,
                     });
                 }
             }
         }
         let result = estimate.map(|m| Motion {
-            curr_from_prev: m.curr_from_prev,
+            // the estimate is `curr_from_key`
+            curr_from_prev: m.curr_from_prev * prev_from_key.inverse(),
             inliers: m.inliers.iter().filter(|&&b| b).count(),
             information: m.information,
             gyro_rotation,
@@ -457,6 +558,7 @@ impl StereoOdometry {
         let corners = detect_corners(base, &self.config.corners, &occupied);
         stages.corners_ms = lap_ms(&mut lap);
         let stereo = &self.config.stereo;
+        let key_from_curr = self.key.key_from(&self.first_from_camera);
         let matched: Vec<Option<f32>> = corners
             .par_iter()
             .with_min_len(8)
@@ -468,11 +570,13 @@ impl StereoOdometry {
             };
             let uv = Vector3::new(x as f64, (x - d) as f64, y as f64);
             if let Some(p) = self.camera.backproject(&uv) {
+                let p_camera = Point3::from(p);
                 self.features.push(Feature {
                     id: self.next_id,
                     x,
                     y,
-                    p_camera: Point3::from(p),
+                    p_camera,
+                    p_key: key_from_curr * p_camera,
                 });
                 self.next_id += 1;
             }

@@ -57,6 +57,15 @@ impl SlidingWindow {
         }
     }
 
+    /// Moves every frame of the window by `correction` (a rigid motion of the first
+    /// camera's frame, e.g. a tilt toward gravity): the frames keep their relative poses,
+    /// and the oldest, held in the next refinement, carries it on.
+    pub fn correct(&mut self, correction: &Isometry3<f64>) {
+        for f in &mut self.frames {
+            f.first_from_camera = correction * f.first_from_camera;
+        }
+    }
+
     /// Adds a frame and refines the window; returns the refined pose of the new frame, or
     /// `None` when nothing was refined. With `gyro_check` (the gyro's rotation
     /// `curr_from_prev` from the previous frame to this one and the largest disagreement,
