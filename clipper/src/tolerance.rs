@@ -12,10 +12,9 @@
 
 use nalgebra::Point3;
 
-use crate::association::{exp_neg, PairTest};
-use crate::{
-    choose_strategy, Association, BuildStrategy, ClipperError, ConsistencyGraph, Invariant,
-};
+use crate::association::{exp_neg, validate_input, PairTest};
+use crate::build::{build_checked, choose_checked, join_deciding};
+use crate::{Association, BuildStrategy, ClipperError, ConsistencyGraph, Invariant};
 
 /// Per-point position variances (m²) of both maps, and the multiplier of the standard
 /// deviation.
@@ -91,21 +90,14 @@ impl ConsistencyGraph {
                 return Ok((graph, summary));
             }
         }
-        let wide = widened(invariant, pair.epsilon_max, pair.epsilon_z_max);
-        let graph = match choose_strategy(prior, query, associations, &wide)? {
+        let wide = PairTest::new(&widened(invariant, pair.epsilon_max, pair.epsilon_z_max))?;
+        validate_input(prior, query, associations)?;
+        let graph = match choose_checked(prior, query, associations, &wide) {
             // the join finds the candidates within the widest thresholds and decides each
             // with its own in the same pass
-            BuildStrategy::Join => {
-                crate::build::join_deciding(prior, query, associations, &wide, &pair)?
-            }
-            _ => {
-                let candidates = Self::build_with(
-                    prior,
-                    query,
-                    associations,
-                    &wide,
-                    BuildStrategy::PairwiseScan,
-                )?;
+            BuildStrategy::Join => join_deciding(prior, query, associations, &wide, &pair),
+            strategy => {
+                let candidates = build_checked(prior, query, associations, &wide, strategy);
                 pair.filter(&candidates, prior, query, associations)
             }
         };
@@ -510,7 +502,13 @@ mod tests {
         assert_eq!(graph, ConsistencyGraph::from_edge_list(assoc.len(), &edges));
         // both builders: the join deciding each pair in one pass, the scan then the filter
         let wide = widened(&inv(), pair.epsilon_max, pair.epsilon_z_max);
-        let joined = crate::build::join_deciding(&prior, &query, &assoc, &wide, &pair).unwrap();
+        let joined = join_deciding(
+            &prior,
+            &query,
+            &assoc,
+            &PairTest::new(&wide).unwrap(),
+            &pair,
+        );
         let scanned = ConsistencyGraph::build_with(
             &prior,
             &query,

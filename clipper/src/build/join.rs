@@ -111,8 +111,9 @@ impl UsedPoints {
 /// Work is organised by prior point `a`: one task emits the upper rows (neighbours of
 /// higher rank) of every association of `a`, visiting the prior points `b > a` in ascending
 /// order, so each prior pair is joined once; the lower rows are the mirror, placed in one
-/// sequential pass that keeps every row sorted. Rows are generated in *rank space* (associations sorted by (prior, query)) and relabelled
-/// to association ids at the end when the list was not already sorted.
+/// sequential pass that keeps every row sorted. Rows are generated in *rank space*
+/// (associations sorted by (prior, query)) and relabelled to association ids at the end
+/// when the list was not already sorted.
 pub(crate) fn build(
     prior: &[Point3<f64>],
     query: &[Point3<f64>],
@@ -123,8 +124,8 @@ pub(crate) fn build(
 }
 
 /// [`build`] whose candidate pairs (within `test`'s thresholds) are kept and weighed by
-/// `decision`: one pass for a graph whose every pair has its own thresholds, all within
-/// `test`'s.
+/// `decision` (its exponents replace the test's): one pass for a graph whose every pair has
+/// its own thresholds, all within `test`'s. The input must be valid (`validate_input`).
 pub(crate) fn build_deciding(
     prior: &[Point3<f64>],
     query: &[Point3<f64>],

@@ -7,7 +7,7 @@
 //! - [`scan`]: tests every association pair with a vectorised prefilter (sparse lists).
 
 mod join;
-pub(crate) use join::{PairDecision, UsedPoints};
+pub(crate) use join::{build_deciding as join_deciding, PairDecision, UsedPoints};
 mod scan;
 #[cfg(target_arch = "x86_64")]
 mod scan_avx2;
@@ -67,36 +67,28 @@ impl ConsistencyGraph {
     ) -> Result<Self, ClipperError> {
         let test = PairTest::new(invariant)?;
         validate_input(prior, query, associations)?;
-        let strategy = match strategy {
-            BuildStrategy::Auto => choose_checked(prior, query, associations, &test),
-            s => s,
-        };
-        Ok(match strategy {
-            BuildStrategy::Join => join::build(prior, query, associations, &test),
-            _ => scan::build(prior, query, associations, &test, scan::Kernel::detect()),
-        })
+        Ok(build_checked(prior, query, associations, &test, strategy))
     }
 }
 
-/// The join build whose candidates (within `invariant`'s thresholds) `decision` keeps and
-/// weighs (see [`PairDecision`]); the invariant's weights are replaced by the decision's
-/// exponents.
-pub(crate) fn join_deciding(
+/// [`ConsistencyGraph::build_with`] on input already validated, with the pair test made.
+pub(crate) fn build_checked(
     prior: &[Point3<f64>],
     query: &[Point3<f64>],
     associations: &[Association],
-    invariant: &Invariant,
-    decision: &impl PairDecision,
-) -> Result<ConsistencyGraph, ClipperError> {
-    let test = PairTest::new(invariant)?;
-    validate_input(prior, query, associations)?;
-    Ok(join::build_deciding(
-        prior,
-        query,
-        associations,
-        &test,
-        decision,
-    ))
+    test: &PairTest,
+    strategy: BuildStrategy,
+) -> ConsistencyGraph {
+    match strategy {
+        BuildStrategy::Auto => {
+            let chosen = choose_checked(prior, query, associations, test);
+            build_checked(prior, query, associations, test, chosen)
+        }
+        BuildStrategy::Join => join::build(prior, query, associations, test),
+        BuildStrategy::PairwiseScan => {
+            scan::build(prior, query, associations, test, scan::Kernel::detect())
+        }
+    }
 }
 
 /// The builder [`BuildStrategy::Auto`] would use for this problem (never `Auto`).
@@ -124,7 +116,7 @@ const EXACT_TEST_NS: f64 = 15.0;
 const LIST_ENTRY_NS: f64 = 40.0;
 const JOIN_CANDIDATE_NS: f64 = 45.0;
 
-fn choose_checked(
+pub(crate) fn choose_checked(
     prior: &[Point3<f64>],
     query: &[Point3<f64>],
     associations: &[Association],
