@@ -213,7 +213,8 @@ pub fn pair_of(a: &Association, prior: &PreparedMap, query: &PreparedMap) -> Wei
 /// to them is usually tiny and searched exactly (which certifies the answer); when it is
 /// too large for that and the seeded search found nothing worth a hypothesis, the
 /// densest-clique relaxation has the last word.
-/// The largest clique found, and the graph's core numbers (the rival search reuses them).
+///
+/// Returns the clique and the graph's core numbers (the rival search reuses them).
 fn solve_clique(
     graph: &ConsistencyGraph,
     config: &RelocalizeConfig,

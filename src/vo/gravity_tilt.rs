@@ -54,12 +54,12 @@ impl GravityAnchor {
         first_from_camera: &Isometry3<f64>,
         gravity_camera: &Vector3<f64>,
     ) -> Isometry3<f64> {
-        let Some(g_camera) = Unit::try_new(*gravity_camera, 1e-9) else {
-            return *first_from_camera;
-        };
         if !gravity_camera.iter().all(|v| v.is_finite()) {
             return *first_from_camera;
         }
+        let Some(g_camera) = Unit::try_new(*gravity_camera, 1e-9) else {
+            return *first_from_camera;
+        };
         let g_first = first_from_camera.rotation * g_camera;
         if self.frames < config.reference_frames {
             self.sum += g_first.into_inner();
