@@ -36,6 +36,8 @@ pub struct BoulderConfig {
     /// [`depth_refine`](super::depth_refine)); only matters when stereo ran at a reduced
     /// resolution.
     pub refine_depth: bool,
+    /// Settings of that refinement.
+    pub refine: RefineSettings,
 }
 
 impl Default for BoulderConfig {
@@ -50,6 +52,7 @@ impl Default for BoulderConfig {
             min_valid_depth_fraction: 0.2,
             max_range_m: 10.0,
             refine_depth: true,
+            refine: RefineSettings::default(),
         }
     }
 }
@@ -62,13 +65,15 @@ impl BoulderConfig {
             && self.max_elongation >= 1.0
             && self.spread_to_size > 0.0
             && (0.0..=1.0).contains(&self.min_valid_depth_fraction)
-            && self.max_range_m > 0.0;
+            && self.max_range_m > 0.0
+            && self.refine.is_valid();
         if ok {
             Ok(())
         } else {
             Err(PerceptionError::Config(
                 "boulders: need 0 <= min_size_m < max_size_m, max_elongation >= 1, \
-                 spread_to_size > 0, min_valid_depth_fraction in [0, 1], max_range_m > 0"
+                 spread_to_size > 0, min_valid_depth_fraction in [0, 1], max_range_m > 0, \
+                 refine.radius >= 1, refine.max_samples >= 5, refine.disparity_quantile in [0, 1]"
                     .into(),
             ))
         }
@@ -88,7 +93,8 @@ pub struct Boulder {
     pub spread_px: f64,
     /// Eigenvalue ratio λ1 / λ2 of the mask's pixel covariance.
     pub elongation: f64,
-    /// Depth of the boulder's visible surface (median over the mask), metres.
+    /// Depth of the boulder's visible surface (a quantile of its disparities, see
+    /// [`RefineSettings::disparity_quantile`](super::depth_refine::RefineSettings)), metres.
     pub depth_m: f64,
     /// Centroid of the visible surface in the left camera's optical frame (x right, y down,
     /// z forward), metres.
@@ -197,8 +203,7 @@ fn boulder_from_mask(
     let mid = disparities.len() / 2;
     let (_, &mut mut d, _) = disparities.select_nth_unstable_by(mid, f64::total_cmp);
     if let Some((left, right)) = pair {
-        let settings = RefineSettings::default();
-        if let Some(fine) = refine_disparity(left, right, mask, d, &settings) {
+        if let Some(fine) = refine_disparity(left, right, mask, d, &config.refine) {
             d = fine;
         }
     }

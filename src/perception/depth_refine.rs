@@ -2,37 +2,55 @@
 //!
 //! Semi-global matching at half resolution is fast but quantises depth coarsely (at 5 m a
 //! tenth of a half-resolution pixel is 3.4 cm). For each boulder this step re-matches the
-//! interior of its mask at full resolution: zero-mean normalised cross-correlation (ZNCC)
-//! of a small window, searched a few pixels around the coarse disparity, with a parabolic
-//! sub-pixel fit; the median over the interior pixels is the boulder's disparity.
+//! pixels of its mask at full resolution: zero-mean normalised cross-correlation (ZNCC) of
+//! a small window, searched a few pixels around the coarse disparity, with a parabolic
+//! sub-pixel fit; a quantile of the matched disparities is the boulder's disparity.
+
+use serde::{Deserialize, Serialize};
 
 use super::{GrayImage, Mask};
 
-/// Settings of the refinement.
-#[derive(Clone, Copy, Debug)]
+/// Settings of the refinement (the defaults and why: `docs/design/boulder-depth.md`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RefineSettings {
     /// Window radius (the window is 2r + 1 wide).
     pub radius: usize,
     /// Search ± this many pixels around the coarse disparity.
     pub search_px: usize,
-    /// Pixels closer than this to the mask's outline are not used (their windows would
-    /// straddle the background).
+    /// Pixels closer than this to the mask's outline are not used. Small far rocks have
+    /// few pixels, so the default uses them all.
     pub erode_px: usize,
     /// Smallest ZNCC of an accepted match.
     pub min_zncc: f64,
     /// At most this many pixels are matched per boulder.
     pub max_samples: usize,
+    /// The quantile of the matched disparities taken as the boulder's (0.5: the median;
+    /// higher: nearer). Windows on the rock's upper outline also see the ground behind it,
+    /// which pulls the median farther than the rock's visible surface.
+    pub disparity_quantile: f64,
 }
 
 impl Default for RefineSettings {
     fn default() -> Self {
         RefineSettings {
-            radius: 4,
+            radius: 3,
             search_px: 3,
-            erode_px: 3,
+            erode_px: 0,
             min_zncc: 0.8,
             max_samples: 600,
+            disparity_quantile: 0.6,
         }
+    }
+}
+
+impl RefineSettings {
+    /// Whether the values are usable: a window of radius ≥ 1, a quantile in [0, 1].
+    pub fn is_valid(&self) -> bool {
+        self.radius >= 1
+            && self.max_samples >= 5
+            && (0.0..=1.0).contains(&self.disparity_quantile)
+            && self.min_zncc.is_finite()
     }
 }
 
@@ -98,8 +116,8 @@ pub fn refine_disparity(
     if found.len() < 5 {
         return None;
     }
-    let mid = found.len() / 2;
-    Some(*found.select_nth_unstable_by(mid, f64::total_cmp).1)
+    let rank = ((found.len() - 1) as f64 * settings.disparity_quantile).round() as usize;
+    Some(*found.select_nth_unstable_by(rank, f64::total_cmp).1)
 }
 
 /// ZNCC of the left window at (x, y) with the right window at (x − d, y).

@@ -77,6 +77,10 @@ pub struct DetectionOutcome {
     /// Whether the centroid lies on the lander or a rock's pixels, else ground (for the
     /// false positives' causes): "rock", "lander", "ground" or "sky".
     pub on: &'static str,
+    /// The rock under the centroid pixel when it matched none: its id, its size (metres)
+    /// and the detection's distance to its visible centre (metres). Tells a depth error on
+    /// a rock from a rock below the counted size.
+    pub unmatched_on_rock: Option<(usize, f64, f64)>,
 }
 
 /// The score of one frame.
@@ -202,7 +206,15 @@ pub fn score_frame(frame: &StereoFrame, boulders: &[Boulder], config: &MatchConf
             let [u, v] = b.pixel_centroid;
             let idx = (v.round().max(0.0) as usize).min(frame.left.height - 1) * width
                 + (u.round().max(0.0) as usize).min(width - 1);
-            let on = match (frame.instance[idx], frame.depth_m[idx]) {
+            let under = frame.instance[idx];
+            let unmatched_on_rock = (m.is_none() && under != 0 && under != LANDER_INSTANCE)
+                .then(|| frame.rocks.iter().find(|r| r.id + 1 == under as usize))
+                .flatten()
+                .map(|r| {
+                    let e = (p - Point3::from(r.visible_center_world)).norm();
+                    (r.id, 2.0 * r.radius_m, e)
+                });
+            let on = match (under, frame.depth_m[idx]) {
                 (LANDER_INSTANCE, _) => "lander",
                 (0, d) if d <= 0.0 => "sky",
                 (0, _) => "ground",
@@ -214,6 +226,7 @@ pub fn score_frame(frame: &StereoFrame, boulders: &[Boulder], config: &MatchConf
                 pixel_centroid: b.pixel_centroid,
                 rock: m.map(|k| frame.rocks[k].id),
                 on,
+                unmatched_on_rock,
             }
         })
         .collect();
@@ -339,6 +352,7 @@ mod tests {
             pixel_centroid: [0.0; 2],
             rock,
             on: "rock",
+            unmatched_on_rock: None,
         };
         let f = FrameScore {
             seed: 1,
