@@ -73,7 +73,8 @@ impl BoulderConfig {
             Err(PerceptionError::Config(
                 "boulders: need 0 <= min_size_m < max_size_m, max_elongation >= 1, \
                  spread_to_size > 0, min_valid_depth_fraction in [0, 1], max_range_m > 0, \
-                 refine.radius >= 1, refine.max_samples >= 5, refine.disparity_quantile in [0, 1]"
+                 refine.radius >= 1, refine.max_samples >= 5, refine.disparity_quantile in [0, 1], \
+                 refine.min_zncc finite"
                     .into(),
             ))
         }

@@ -45,7 +45,8 @@ impl Default for RefineSettings {
 }
 
 impl RefineSettings {
-    /// Whether the values are usable: a window of radius ≥ 1, a quantile in [0, 1].
+    /// Whether the values are usable: a window of radius ≥ 1, at least 5 samples, a
+    /// quantile in [0, 1] and a finite smallest ZNCC.
     pub fn is_valid(&self) -> bool {
         self.radius >= 1
             && self.max_samples >= 5
