@@ -45,6 +45,15 @@ pub struct GravityAnchor {
 }
 
 impl GravityAnchor {
+    /// The vertical (up, against gravity) in the first camera's frame, once the reference
+    /// frames have been averaged.
+    pub fn up_first(&self, config: &VoGravityConfig) -> Option<Unit<Vector3<f64>>> {
+        if self.frames < config.reference_frames.max(1) {
+            return None;
+        }
+        Unit::try_new(-self.sum, 1e-9)
+    }
+
     /// `first_from_camera` with its tilt turned toward the reference by the configured
     /// gain, given gravity measured in the camera's frame (any length); the frames of the
     /// reference are only accumulated. A zero or non-finite reading changes nothing.

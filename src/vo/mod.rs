@@ -15,6 +15,7 @@
 pub mod corners;
 pub mod error;
 pub mod gravity_tilt;
+pub mod gyro_heading;
 pub mod keyframe;
 pub mod klt;
 pub mod lac_sequence;

@@ -11,6 +11,7 @@
 
 use super::corners::{cell_of, detect_corners, grid_size, CornerConfig};
 use super::gravity_tilt::{GravityAnchor, VoGravityConfig};
+use super::gyro_heading::{GyroHeading, HeadingInputs, VoGyroHeadingConfig};
 use super::keyframe::{Keyframe, KeyframeConfig};
 use super::klt::{track, KltConfig};
 use super::motion::{
@@ -52,6 +53,8 @@ pub struct VoConfig {
     pub keyframe: KeyframeConfig,
     /// The IMU's gravity as a roll–pitch anchor (see [`super::gravity_tilt`]).
     pub gravity: VoGravityConfig,
+    /// The heading from the bias-corrected gyro (see [`super::gyro_heading`]).
+    pub gyro_heading: VoGyroHeadingConfig,
 }
 
 /// How the odometry uses a gyro.
@@ -94,6 +97,7 @@ impl Default for VoConfig {
             gyro: VoGyroConfig::default(),
             keyframe: KeyframeConfig::default(),
             gravity: VoGravityConfig::default(),
+            gyro_heading: VoGyroHeadingConfig::default(),
         }
     }
 }
@@ -125,6 +129,9 @@ impl VoConfig {
         if self.gyro.max_translation_jump_m.is_nan() || self.gyro.max_translation_jump_m <= 0.0 {
             return bad("gyro.max_translation_jump_m must be positive");
         }
+        self.gyro_heading
+            .validate()
+            .map_err(|m| VoError::Config(m.into()))?;
         if self.keyframe.max_frames == 0 || !(0.0..=1.0).contains(&self.keyframe.min_own_fraction) {
             return bad(
                 "keyframe.max_frames must be positive, keyframe.min_own_fraction in [0, 1]",
@@ -207,6 +214,8 @@ pub struct StereoOdometry {
     key: Keyframe,
     /// The reference direction of gravity.
     gravity: GravityAnchor,
+    /// The gyro's bias estimate and the heading taken from it.
+    heading: GyroHeading,
 }
 
 /// The motion expected for a frame, before its images are seen.
@@ -239,6 +248,7 @@ impl StereoOdometry {
             previous_time_s: None,
             key: Keyframe::new(),
             gravity: GravityAnchor::default(),
+            heading: GyroHeading::default(),
         })
     }
 
@@ -283,6 +293,7 @@ impl StereoOdometry {
         let mut lap = start;
         let mut stages = StageTimes::default();
         let predicted = self.predicted_motion(time_s, gyro_rover_rad_s);
+        let dt_s = self.previous_time_s.map(|t0| time_s - t0);
         self.previous_time_s = Some(time_s);
         let (pyramid, right) = rayon::join(
             || Pyramid::new(left, self.config.pyramid_levels),
@@ -334,6 +345,12 @@ impl StereoOdometry {
             self.first_from_camera = refined;
         }
         self.anchor_tilt(gravity_rover);
+        self.take_gyro_heading(&HeadingInputs {
+            gyro_curr_from_prev: predicted.gyro_rotation,
+            dt_s,
+            up_first: self.gravity.up_first(&self.config.gravity),
+            measured: !lost && !gyro_rotation,
+        });
         stages.window_ms = lap_ms(&mut lap);
         self.next_keyframe(lost, own);
         self.previous = Some(pyramid);
@@ -370,12 +387,26 @@ impl StereoOdometry {
         let anchored =
             self.gravity
                 .correct(&self.config.gravity, &self.first_from_camera, &g_camera);
-        // the window and the keyframe turn with the frame, so the next refinement (which
-        // holds the window's oldest frame) and the next motion keep the correction
-        let correction = anchored * self.first_from_camera.inverse();
+        self.turn_to(anchored);
+    }
+
+    /// Replaces the frame's change of heading by the bias-corrected gyro's (see
+    /// [`super::gyro_heading`]), and turns the window and keyframe with it.
+    fn take_gyro_heading(&mut self, inputs: &HeadingInputs) {
+        let turned =
+            self.heading
+                .correct(&self.config.gyro_heading, &self.first_from_camera, inputs);
+        self.turn_to(turned);
+    }
+
+    /// Moves the frame to `corrected` (the same position, turned), and the window and the
+    /// keyframe with it, so that the next refinement (which holds the window's oldest frame)
+    /// and the next motion keep the correction.
+    fn turn_to(&mut self, corrected: Isometry3<f64>) {
+        let correction = corrected * self.first_from_camera.inverse();
         self.window.correct(&correction);
         self.key.first_from_key = correction * self.key.first_from_key;
-        self.first_from_camera = anchored;
+        self.first_from_camera = corrected;
     }
 
     /// After a frame: makes it the keyframe when one is due (its points become every
