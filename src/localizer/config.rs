@@ -206,7 +206,8 @@ impl Default for CalibrationConfig {
             enabled: true,
             rounds: 2,
             // loose enough for the drift of the real-stream benchmark (1 % scale, 1° per
-            // 10 m = 0.0017 rad/m) to be learnt from a few fixes (docs/design/fix-gate.md)
+            // 10 m = 0.0017 rad/m) to be learnt from a few fixes
+            // (docs/design/odometry-bias-prior.md)
             prior_scale: 0.02,
             prior_yaw_drift_rad_per_m: 0.005,
             prior_yaw_scale: 0.003,
