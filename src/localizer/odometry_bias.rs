@@ -314,4 +314,44 @@ mod tests {
         assert!(got.yaw_drift_rad_per_m.abs() < 1e-9);
         assert!(got.yaw_scale_error.abs() < 1e-9);
     }
+
+    #[test]
+    fn the_default_priors_let_a_few_noisy_fixes_learn_the_stream_drift() {
+        // the drift of `segloc eval stream` (1° per 10 m, 1 %), seen through the noisy
+        // relative motions of a graph tied down by a few fixes: weak per-step evidence
+        let bias = OdometryBias {
+            scale_error: 0.01,
+            yaw_drift_rad_per_m: 1f64.to_radians() / 10.0,
+            yaw_scale_error: 0.0,
+        };
+        let (steps, truth) = drive(&bias);
+        let weights = vec![
+            StepWeight {
+                yaw: 1e5,
+                translation: 1e4,
+            };
+            steps.len()
+        ];
+        let prior_of = |c: &crate::localizer::config::CalibrationConfig| BiasPrior {
+            scale_error: c.prior_scale,
+            yaw_drift_rad_per_m: c.prior_yaw_drift_rad_per_m,
+            yaw_scale_error: c.prior_yaw_scale,
+        };
+        let defaults = crate::localizer::config::CalibrationConfig::default();
+        let got = estimate_bias(&steps, &truth, &weights, &prior_of(&defaults));
+        let old = crate::localizer::config::CalibrationConfig {
+            prior_scale: 0.01,
+            prior_yaw_drift_rad_per_m: 0.0005,
+            ..defaults
+        };
+        let shrunk = estimate_bias(&steps, &truth, &weights, &prior_of(&old));
+        let learnt = got.yaw_drift_rad_per_m / bias.yaw_drift_rad_per_m;
+        let learnt_old = shrunk.yaw_drift_rad_per_m / bias.yaw_drift_rad_per_m;
+        // the former priors (0.0005 rad/m, 1 %) shrank the same evidence to a tenth
+        assert!(learnt > 0.8 && learnt_old < 0.2, "{learnt} {learnt_old}");
+        assert!(
+            (got.scale_error - bias.scale_error).abs() < 0.002,
+            "{got:?}"
+        );
+    }
 }
