@@ -96,8 +96,9 @@ print("\n".join([
     "(tuned on KITTI and seeds 11–13). Drift: KITTI's metric over 10 m segments, mean / p90 over the segments.", "",
     f"| seed | sun | distance (m) | translation drift mean / p90 | rotation per 10 m{', before → now' if before else ''} | end point | lost{', before → now' if before else ''} | tracked (median) | ms a frame median / p99 |",
     "|---|---|---|---|---|---|---|---|---|",
-    *[r for _, r in runs], "", summary, stages, "",
-    "Targets: ≤ 1 % over 10 m (median over seeds), ≤ 0.1° per 10 m, no frame lost, ≤ 40 ms a frame on 2 cores.",
+    *[r for _, r in runs], "",
+    " ".join(x for x in [summary, stages + "." if stages else "",
+             "Targets: ≤ 1 % over 10 m (median over seeds), ≤ 0.1° per 10 m, no frame lost, ≤ 40 ms a frame on 2 cores."] if x),
 ]))
 PY
 )
