@@ -165,10 +165,21 @@ impl Default for MissionConfig {
             wrong_rotation_deg: 1.0,
             rock_grid: RockGridConfig::default(),
             terrain_height: terrain_height::TerrainHeightConfig::default(),
-            localizer: LocalizerConfig::default(),
+            localizer: localizer_for(&coverage_session().vo),
             perception: perception::PerceptionConfig::default(),
         }
     }
+}
+
+/// The localizer's defaults with the odometry calibration's priors set to the simulated
+/// odometry's own drift (its 1 σ scale error and yaw drift per metre): the mission knows the
+/// statistics of its sensor, where the library's defaults are loose enough for an unknown
+/// one (docs/design/odometry-bias-prior.md).
+fn localizer_for(odometry: &crate::sim::visual_odometry::VoConfig) -> LocalizerConfig {
+    let mut localizer = LocalizerConfig::default();
+    localizer.calibration.prior_scale = odometry.scale_error_sigma;
+    localizer.calibration.prior_yaw_drift_rad_per_m = odometry.yaw_drift_sigma_rad_per_m;
+    localizer
 }
 
 impl MissionConfig {
