@@ -134,7 +134,9 @@ pub struct MissionConfig {
     /// Terrain-relative height alignment of both sessions' poses before the maps.
     pub terrain_height: terrain_height::TerrainHeightConfig,
     /// Both sessions' localizers (session 2's fusion takes session 1's calibrated
-    /// viewpoint bias).
+    /// viewpoint bias). Default: the library's, with the odometry calibration's priors set
+    /// to the simulated odometry's drift; a `[localizer]` table in a partial TOML file
+    /// starts from the library's own defaults (print the whole config to keep them).
     pub localizer: LocalizerConfig,
     /// Where the boulder detections come from (sensor model or rendered images).
     pub perception: perception::PerceptionConfig,
@@ -450,6 +452,20 @@ mod tests {
         assert_eq!(back, c);
         let partial: MissionConfig = toml::from_str("seconds_per_session = 60.0").unwrap();
         assert_eq!(partial.seconds_per_session, 60.0);
+    }
+
+    #[test]
+    fn the_calibration_priors_are_the_simulated_odometrys_drift() {
+        let c = MissionConfig::default();
+        let odometry = crate::sim::visual_odometry::VoConfig::default();
+        assert_eq!(
+            c.localizer.calibration.prior_scale,
+            odometry.scale_error_sigma
+        );
+        assert_eq!(
+            c.localizer.calibration.prior_yaw_drift_rad_per_m,
+            odometry.yaw_drift_sigma_rad_per_m
+        );
     }
 
     #[test]
