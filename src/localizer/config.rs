@@ -216,6 +216,15 @@ impl Default for CalibrationConfig {
 }
 
 impl CalibrationConfig {
+    /// The priors as [`estimate_bias`](super::odometry_bias::estimate_bias) takes them.
+    pub fn prior(&self) -> super::odometry_bias::BiasPrior {
+        super::odometry_bias::BiasPrior {
+            scale_error: self.prior_scale,
+            yaw_drift_rad_per_m: self.prior_yaw_drift_rad_per_m,
+            yaw_scale_error: self.prior_yaw_scale,
+        }
+    }
+
     /// Check the values are in range.
     pub fn validate(&self) -> Result<(), FieldError> {
         positive(&[

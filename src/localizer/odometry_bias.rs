@@ -332,19 +332,14 @@ mod tests {
             };
             steps.len()
         ];
-        let prior_of = |c: &crate::localizer::config::CalibrationConfig| BiasPrior {
-            scale_error: c.prior_scale,
-            yaw_drift_rad_per_m: c.prior_yaw_drift_rad_per_m,
-            yaw_scale_error: c.prior_yaw_scale,
-        };
         let defaults = crate::localizer::config::CalibrationConfig::default();
-        let got = estimate_bias(&steps, &truth, &weights, &prior_of(&defaults));
+        let got = estimate_bias(&steps, &truth, &weights, &defaults.prior());
         let old = crate::localizer::config::CalibrationConfig {
             prior_scale: 0.01,
             prior_yaw_drift_rad_per_m: 0.0005,
             ..defaults
         };
-        let shrunk = estimate_bias(&steps, &truth, &weights, &prior_of(&old));
+        let shrunk = estimate_bias(&steps, &truth, &weights, &old.prior());
         let learnt = got.yaw_drift_rad_per_m / bias.yaw_drift_rad_per_m;
         let learnt_old = shrunk.yaw_drift_rad_per_m / bias.yaw_drift_rad_per_m;
         // the former priors (0.0005 rad/m, 1 %) shrank the same evidence to a tenth

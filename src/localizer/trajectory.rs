@@ -5,7 +5,7 @@
 use super::config::OdometryNoiseConfig;
 use super::frame_log::FrameLog;
 use super::odometry_bias::{
-    estimate_bias, stale_correction_sigma, BiasPrior, OdometryBias, OdometryStep, StepWeight,
+    estimate_bias, stale_correction_sigma, OdometryBias, OdometryStep, StepWeight,
 };
 use super::LocalizerConfig;
 use crate::graph::{
@@ -432,14 +432,9 @@ impl TrajectoryGraph {
     /// The odometry's biases from the current estimate: the poses were optimised with the
     /// factors' corrections, so the estimate is of the total bias seen from the raw steps.
     fn estimate_bias(&self, config: &LocalizerConfig, weights: &[StepWeight]) -> OdometryBias {
-        let prior = BiasPrior {
-            scale_error: config.calibration.prior_scale,
-            yaw_drift_rad_per_m: config.calibration.prior_yaw_drift_rad_per_m,
-            yaw_scale_error: config.calibration.prior_yaw_scale,
-        };
         let poses: Vec<Isometry3<f64>> =
             (0..self.frames).map(|k| self.pose_or_identity(k)).collect();
-        estimate_bias(&self.steps, &poses, weights, &prior)
+        estimate_bias(&self.steps, &poses, weights, &config.calibration.prior())
     }
 
     /// Estimate the odometry's biases from the optimised trajectory, rebuild the graph with

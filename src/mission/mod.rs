@@ -174,13 +174,15 @@ impl Default for MissionConfig {
 }
 
 /// The localizer's defaults with the odometry calibration's priors set to the simulated
-/// odometry's own drift (its 1 σ scale error and yaw drift per metre): the mission knows the
+/// odometry's own errors (its 1 σ scale error, yaw drift per metre and yaw-rate scale
+/// error): the mission knows the
 /// statistics of its sensor, where the library's defaults are loose enough for an unknown
 /// one (docs/design/odometry-bias-prior.md).
 fn localizer_for(odometry: &crate::sim::visual_odometry::VoConfig) -> LocalizerConfig {
     let mut localizer = LocalizerConfig::default();
     localizer.calibration.prior_scale = odometry.scale_error_sigma;
     localizer.calibration.prior_yaw_drift_rad_per_m = odometry.yaw_drift_sigma_rad_per_m;
+    localizer.calibration.prior_yaw_scale = odometry.yaw_scale_error_sigma;
     localizer
 }
 
