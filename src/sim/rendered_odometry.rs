@@ -4,7 +4,9 @@
 //! Every `period_ticks` simulator ticks (10 Hz by default): render the front stereo pair
 //! from the true rover pose ([`Renderer`]) → read the gyro over the interval since the last
 //! pair ([`Gyro`]) → measure the left camera's motion with the stereo visual odometry
-//! ([`StereoOdometry`]) → move it to the rover frame. The ticks between two pairs move by a
+//! ([`StereoOdometry`]), given the gyro and the IMU's gravity as `segloc vo --images` is
+//! (tilt anchored to gravity, heading from the bias-corrected gyro) → move it to the rover
+//! frame. The ticks between two pairs move by a
 //! tick's share of the last measured motion (constant velocity, what the planner drives on);
 //! the tick of the next pair takes what is left, so that the odometry over a pair's
 //! interval is exactly the VO's.
@@ -14,7 +16,7 @@ use crate::sim::gyro::{Gyro, GyroConfig};
 use crate::sim::render::scoring::Quantiles;
 use crate::sim::render::{rover_from_front_left_optical, Renderer};
 use crate::vo::{StereoOdometry, VoConfig, VoError};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Noise frames of the odometry's renders start here (keys from 2⁴⁰), apart from the
@@ -103,13 +105,15 @@ impl RenderedOdometry {
     }
 
     /// Start a session at its first tick (time `time_s`, the rover truly at
-    /// `world_from_rover`); `seed` draws its gyro's bias and noise.
+    /// `world_from_rover`, the IMU reading `gravity_rover`); `seed` draws its gyro's bias
+    /// and noise.
     pub fn begin_session(
         &mut self,
         renderer: &Renderer,
         seed: u64,
         time_s: f64,
         world_from_rover: &Isometry3<f64>,
+        gravity_rover: Option<Vector3<f64>>,
     ) -> Result<(), VoError> {
         let mut odometry = StereoOdometry::new(self.camera, self.config.vo.clone())?;
         odometry.set_gyro_mount(self.rover_from_left.rotation);
@@ -125,19 +129,20 @@ impl RenderedOdometry {
             lost: 0,
             gyro_rotation: 0,
         });
-        self.process_pair(renderer, time_s, world_from_rover);
+        self.process_pair(renderer, time_s, world_from_rover, gravity_rover);
         Ok(())
     }
 
     /// The measured step of tick `tick` (time `time_s`; the rover truly at
-    /// `world_from_rover`): `prev_from_cur` in the rover frame. Identity before
-    /// [`RenderedOdometry::begin_session`].
+    /// `world_from_rover`, the IMU reading `gravity_rover`, rover frame): `prev_from_cur` in
+    /// the rover frame. Identity before [`RenderedOdometry::begin_session`].
     pub fn measure(
         &mut self,
         renderer: &Renderer,
         tick: usize,
         time_s: f64,
         world_from_rover: &Isometry3<f64>,
+        gravity_rover: Option<Vector3<f64>>,
     ) -> Isometry3<f64> {
         let period = self.config.period_ticks.max(1);
         if !tick.is_multiple_of(period) {
@@ -149,7 +154,9 @@ impl RenderedOdometry {
                 None => Isometry3::identity(),
             };
         }
-        let Some(odom_from_rover) = self.process_pair(renderer, time_s, world_from_rover) else {
+        let Some(odom_from_rover) =
+            self.process_pair(renderer, time_s, world_from_rover, gravity_rover)
+        else {
             return Isometry3::identity();
         };
         let Some(s) = self.session.as_mut() else {
@@ -163,13 +170,14 @@ impl RenderedOdometry {
         step
     }
 
-    /// Render the pair at `world_from_rover`, run the VO on it; the rover's new
-    /// `odom_from_rover` (`None` without a session).
+    /// Render the pair at `world_from_rover`, run the VO on it with the gyro and
+    /// `gravity_rover`; the rover's new `odom_from_rover` (`None` without a session).
     fn process_pair(
         &mut self,
         renderer: &Renderer,
         time_s: f64,
         world_from_rover: &Isometry3<f64>,
+        gravity_rover: Option<Vector3<f64>>,
     ) -> Option<Isometry3<f64>> {
         let s = self.session.as_mut()?;
         let world_from_left = world_from_rover * self.rover_from_left;
@@ -178,9 +186,9 @@ impl RenderedOdometry {
         self.pairs += 1;
         s.render_ms.push(render_ms);
         let rate = s.gyro.read(time_s, world_from_rover);
-        let result = s
-            .odometry
-            .process_with_gyro(&left.image, &right.image, time_s, Some(rate));
+        let result =
+            s.odometry
+                .process_with_imu(&left.image, &right.image, time_s, Some(rate), gravity_rover);
         s.vo_ms.push(result.time_ms);
         s.tracked.push(result.tracked as f64);
         s.lost += usize::from(result.lost);
@@ -246,7 +254,7 @@ mod tests {
         let (x, y) = moon.nearest_clear_position(5.0, 3.0, 1.0, 0.08);
         let pose_at = |d: f64| RoverState::at_rest(x + d, y, 0.0).pose(&moon);
         odometry
-            .begin_session(&renderer, 9, 0.0, &pose_at(0.0))
+            .begin_session(&renderer, 9, 0.0, &pose_at(0.0), None)
             .unwrap();
         // 0.4 m/s at 20 Hz: 2 cm a tick, a pair every other tick
         let mut session_from_rover = Isometry3::identity();
@@ -256,6 +264,7 @@ mod tests {
                 tick,
                 tick as f64 * 0.05,
                 &pose_at(0.02 * tick as f64),
+                None,
             );
             session_from_rover *= step;
         }

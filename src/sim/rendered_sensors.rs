@@ -6,7 +6,7 @@ use crate::sim::rendered_boulders::RenderedBoulders;
 use crate::sim::rendered_odometry::{ImageOdometryStats, RenderedOdometry};
 use crate::sim::sensors::{BoulderObservation, SensorConfig};
 use crate::vo::VoError;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 
 /// The rendered cameras of a mission's sessions.
 pub struct RenderedSensors {
@@ -35,11 +35,16 @@ impl RenderedSensors {
         seed: u64,
         time_s: f64,
         world_from_rover: &Isometry3<f64>,
+        gravity_rover: Option<Vector3<f64>>,
     ) -> Result<(), VoError> {
         match self.odometry.as_mut() {
-            Some(odometry) => {
-                odometry.begin_session(self.boulders.renderer(), seed, time_s, world_from_rover)
-            }
+            Some(odometry) => odometry.begin_session(
+                self.boulders.renderer(),
+                seed,
+                time_s,
+                world_from_rover,
+                gravity_rover,
+            ),
             None => Ok(()),
         }
     }
@@ -51,9 +56,16 @@ impl RenderedSensors {
         tick: usize,
         time_s: f64,
         world_from_rover: &Isometry3<f64>,
+        gravity_rover: Option<Vector3<f64>>,
     ) -> Option<Isometry3<f64>> {
         let odometry = self.odometry.as_mut()?;
-        Some(odometry.measure(self.boulders.renderer(), tick, time_s, world_from_rover))
+        Some(odometry.measure(
+            self.boulders.renderer(),
+            tick,
+            time_s,
+            world_from_rover,
+            gravity_rover,
+        ))
     }
 
     /// The current session's odometry figures (`None` without image odometry).

@@ -160,7 +160,7 @@ impl<'a> SessionSim<'a> {
         );
         let total_ticks = (config.duration_s / TICK_S).round() as usize;
         if let Some(r) = rendered.as_deref_mut() {
-            r.begin_session(seed, 0.0, &world_from_rover)
+            r.begin_session(seed, 0.0, &world_from_rover, Some(gravity_rover))
                 .map_err(|e| SessionError::InvalidConfig(format!("image odometry: {e}")))?;
         }
         let mut sim = Self {
@@ -419,11 +419,6 @@ impl<'a> SessionSim<'a> {
         self.state.step(command, &self.config.rover, TICK_S);
         let world_from_rover = self.state.pose(self.moon);
         let true_step = prev.world_from_rover.inverse() * world_from_rover;
-        let from_images = self
-            .rendered
-            .as_deref_mut()
-            .and_then(|r| r.measure_step(k, time_s, &world_from_rover));
-        let vo_prev_from_cur = from_images.unwrap_or_else(|| self.vo.measure(&true_step));
         let gravity_rover = self.gravity_bias
             * gravity_in_rover(
                 &world_from_rover,
@@ -431,6 +426,11 @@ impl<'a> SessionSim<'a> {
                 self.config.sensors.gravity_sigma_rad,
                 &mut self.rng,
             );
+        let from_images = self
+            .rendered
+            .as_deref_mut()
+            .and_then(|r| r.measure_step(k, time_s, &world_from_rover, Some(gravity_rover)));
+        let vo_prev_from_cur = from_images.unwrap_or_else(|| self.vo.measure(&true_step));
         let integrated = prev.session_from_rover * vo_prev_from_cur;
         let (_, _, yaw) = integrated.rotation.euler_angles();
         let (roll, pitch) = roll_pitch_from_gravity(&gravity_rover);
