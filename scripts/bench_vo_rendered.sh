@@ -40,7 +40,11 @@ one() {  # seed sun_elevation
   local dir="$runs/render-s$1"
   rm -rf "$dir"
   "$bin" sim render --seed "$1" --seconds "$seconds" --every 2 --sun-elevation "$2" -o "$dir" > /dev/null
-  RAYON_NUM_THREADS=$threads "$bin" eval vo --images "$dir" --json > "$out.tmp"
+  RAYON_NUM_THREADS=$threads "$bin" eval vo --images "$dir" --per-frame "${out%.json}.csv" --json > "$out.tmp"
+  # why each lost frame was lost, while the images are still there (needs numpy and Pillow)
+  if "${PYTHON:-python3}" -c 'import numpy, PIL' 2> /dev/null; then
+    "${PYTHON:-python3}" scripts/vo_lost_frames.py "$dir" "${out%.json}.csv" > "${out%.json}.lost.txt"
+  fi
   mv "$out.tmp" "$out"
   rm -rf "$dir"
 }
@@ -85,6 +89,17 @@ summary = (f"Over seeds {first}–{last} at 15°: translation drift median {med(
 if old_ro and len(old_ro) == len(ro):
     summary += (f" Before (`--before`): rotation median {med(old_ro):.3f}°, p90 {p90(old_ro):.3f}°; "
                 f"translation median {med([v['drift_10m']['translation_percent'] for v in old]):.2f} %.")
+causes = {}
+for s in range(first, last + 1):
+    path = f"{d}/vo-s{s}-e15-t{seconds}-j{threads}.lost.txt"
+    for line in open(path) if os.path.exists(path) else []:
+        if line.startswith("counts:"):
+            for item in filter(None, line[len("counts:"):].split(",")):
+                name, n = item.strip().rsplit(" ", 1)
+                causes[name] = causes.get(name, 0) + int(n)
+if causes:
+    summary += (" Lost frames by what the left image held (`scripts/vo_lost_frames.py`): "
+                + ", ".join(f"{k} {v}" for k, v in sorted(causes.items())) + ".")
 stages = main[0].get("stage_ms_median") or {}
 stages = "Median ms per stage (seeds' medians): " + ", ".join(
     f"{k[:-3]} {med([v['stage_ms_median'][k] for v in main]):.1f}" for k in stages) if stages else ""

@@ -52,12 +52,20 @@ fn kitti() -> Option<PathBuf> {
 #[test]
 fn kitti_frames_give_a_small_end_point_error() {
     let Some(seq) = kitti() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("frames.csv");
     let out = common::segloc()
         .args(["eval", "vo", "--json", "--from-frame", "11", "--kitti"])
         .arg(&seq)
+        .arg("--per-frame")
+        .arg(&csv)
         .output()
         .unwrap();
     common::assert_success(&out);
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = rows.lines();
+    assert!(lines.next().unwrap().starts_with("t,tracked,inliers,features,lost"));
+    assert_eq!(lines.count(), 51, "one row a frame");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let t = v["translation_error_percent"].as_f64().unwrap();
     let r = v["rotation_error_deg"].as_f64().unwrap();

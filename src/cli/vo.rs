@@ -100,6 +100,10 @@ pub struct EvalVoArgs {
     /// constant-rate interpolation over frames 0–11 (docs/design/vo-kitti-truth.md).
     #[arg(long, value_name = "N")]
     pub from_frame: Option<usize>,
+    /// Also write one CSV row a frame, as `segloc vo --per-frame` does (which frames were
+    /// lost: `scripts/vo_lost_frames.py` says why).
+    #[arg(long, value_name = "CSV")]
+    pub per_frame: Option<PathBuf>,
     /// Print one JSON object with the results.
     #[arg(long)]
     pub json: bool,
@@ -324,6 +328,9 @@ pub fn eval(a: &EvalVoArgs) -> anyhow::Result<i32> {
             .into());
         };
         let results = run_sequence(&sequence, &config)?;
+        if let Some(path) = &a.per_frame {
+            write_atomic(path, per_frame_csv(&results).as_bytes())?;
+        }
         let poses: Vec<Isometry3<f64>> = results.iter().map(|r| r.pose).collect();
         let from_frame = match a.from_frame {
             Some(n) => {
