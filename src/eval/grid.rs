@@ -95,6 +95,9 @@ pub struct GridTrial {
     /// The rotation error's tilt (degrees): the angle by which it turns the vertical, the
     /// part a gravity-aligned prior could have pinned (the rest is yaw).
     pub tilt_error_deg: Option<f64>,
+    /// The rotation error's yaw (degrees, signed, about the prior's vertical): a bias shared
+    /// by every traverse shows here as one sign.
+    pub yaw_error_deg: Option<f64>,
     /// RMS residual (m) of the best hypothesis' inliers.
     pub rmse_m: f64,
     /// Inliers of the best hypothesis.
@@ -394,6 +397,7 @@ fn run_query(
         rover_error_m: None,
         rotation_error_deg: None,
         tilt_error_deg: None,
+        yaw_error_deg: None,
         rmse_m: f64::NAN,
         inliers: 0,
         yaw_sigma_deg: None,
@@ -437,6 +441,7 @@ fn run_query(
         let error = estimate * truth.inverse();
         let up = nalgebra::Vector3::z();
         trial.tilt_error_deg = Some((error.rotation * up).angle(&up).to_degrees());
+        trial.yaw_error_deg = Some(error.rotation.euler_angles().2.to_degrees());
         trial.rover_error_m = Some(
             world
                 .detections
