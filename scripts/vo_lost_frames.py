@@ -9,7 +9,8 @@ Classes, in this order (the first that holds):
   no ground     under 5 % of the pixels see terrain (sky: the camera pitched up)
   too near      the median terrain depth is nearer than the stereo search reaches
                 (fx * baseline / max_disparity_px)
-  dark          under 5 % of the pixels see terrain brighter than grey 30 (in shadow)
+  dark          the terrain's 90th percentile grey is under 40: all in shadow, only the
+                ambient light and the noise (lit regolith is grey 100-200)
   textured      none of the above: the images held motion the VO did not recover
 Prints one line per run of consecutive lost frames and the counts per class (needs numpy
 and Pillow).
@@ -30,7 +31,7 @@ def classify(left, depth_mm, near_limit_m):
     median_m = float(np.median(depth_mm[ground])) / 1000.0
     if median_m < near_limit_m:
         return "too near", ground.mean(), median_m
-    if ((left > 30) & ground).mean() < 0.05:
+    if np.percentile(left[ground], 90) < 40:
         return "dark", ground.mean(), median_m
     return "textured", ground.mean(), median_m
 
