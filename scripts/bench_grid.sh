@@ -5,7 +5,8 @@
 # BENCHMARKS.md (--print: prints it instead); the JSON stays in target/bench/grid.
 #
 #   scripts/bench_grid.sh [--print]   (from anywhere; SEGLOC_DATA, default ../shared/data;
-#                                      TRIALS transforms per traverse, default 20)
+#                                      TRIALS transforms per traverse, default 20;
+#                                      REUSE=1 keeps a run whose JSON is already there)
 set -euo pipefail
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
@@ -18,10 +19,12 @@ mkdir -p "$out"
 export RAYON_NUM_THREADS=1
 trials="${TRIALS:-20}"
 for cell in 0.15 0.3 0.45; do
+  [[ "${REUSE:-0}" == 1 && -s "$out/grid_$cell.json" ]] && continue
   echo "[bench_grid] $cell m grid" >&2
   nice -n 10 "$bin" eval grid --data "$data" --cell-size "$cell" --trials "$trials" --submaps --negatives --json > "$out/grid_$cell.json"
 done
 echo "[bench_grid] 2,000-rock prior" >&2
+[[ "${REUSE:-0}" == 1 && -s "$out/grid_2000.json" ]] ||
 nice -n 10 "$bin" eval grid --data "$data" --cell-size 0.15 --trials 1 --extra-rocks 1422 --json > "$out/grid_2000.json"
 
 section=$(python3 - "$out" "$(date -u '+%Y-%m-%d %H:%M UTC')" "$(git rev-parse --short HEAD)" "$trials" <<'PY'

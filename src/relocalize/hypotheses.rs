@@ -189,6 +189,7 @@ fn examine(
         spread_m: minor_axis_spread(&inlier_prior),
         tilt: refined.tilt.map(Into::into),
         yaw_sigma_deg: None,
+        min_inliers: None,
     })
 }
 

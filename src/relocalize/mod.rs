@@ -132,7 +132,7 @@ impl Relocalizer {
             consistency::build_graph(prior, &query, &associations, dof, &config.consistency)?;
         timings.graph_ms = ms_since(t);
         let tolerances = Tolerances::from_summary(&summary, &config.consistency);
-        let scaled = self.scaled_config(&tolerances, &query);
+        let scaled = self.scaled_config(&tolerances);
         let config = scaled.as_ref().unwrap_or(config);
 
         // Graph → cliques → aligned and refined hypotheses.
@@ -143,10 +143,12 @@ impl Relocalizer {
         let mut hypotheses = found.hypotheses;
         if scaled.is_some() {
             // wide (grid) tolerances: a few coarse inliers may fix the yaw no better than
-            // the 1° a wrong answer is (see `VerificationConfig::max_yaw_sigma_deg`)
+            // the 1° a wrong answer is (see `VerificationConfig::max_yaw_sigma_deg`), and
+            // a wrong transform collects inliers by chance wherever it puts the query
             for h in &mut hypotheses {
                 h.yaw_sigma_deg = Some(yaw_sigma_of(h, prior, &query));
             }
+            chance_floors(&mut hypotheses, prior, &query, config);
         }
 
         // Hypotheses → verification → the accepted transform with its information.
@@ -180,22 +182,11 @@ impl Relocalizer {
         })
     }
 
-    /// The configuration scaled to widened (grid) tolerances, with the fewest inliers raised
-    /// to what a wrong transform collects by chance; `None` when the tolerances were not
-    /// widened (session maps).
-    fn scaled_config(
-        &self,
-        tolerances: &Tolerances,
-        query: &PreparedMap,
-    ) -> Option<RelocalizeConfig> {
-        let mut grid = tolerances.scaled(&self.config)?;
-        let chance = verify::chance_inliers(
-            &self.prior.points,
-            query.len(),
-            grid.refine.inlier_threshold_m,
-        );
-        grid.verification.min_inliers = grid.verification.min_inliers.max(chance);
-        Some(grid)
+    /// The configuration scaled to widened (grid) tolerances; `None` when the tolerances
+    /// were not widened (session maps). The best hypothesis' fewest inliers is raised to
+    /// its chance count later, where it puts the query.
+    fn scaled_config(&self, tolerances: &Tolerances) -> Option<RelocalizeConfig> {
+        tolerances.scaled(&self.config)
     }
 
     /// The refusal of a query map too small to fix a transform.
@@ -272,6 +263,36 @@ fn accept(
         prior_from_query: best.prior_from_query,
         inliers,
         information,
+    }
+}
+
+/// Widened (grid) tolerances: the fewest inliers of the best hypothesis and of every one
+/// that could make it ambiguous, each raised to what a wrong transform collects by chance
+/// where it puts the query ([`verify::local_chance_inliers`]). A rival under its own chance
+/// count is no rival ([`verify::decide`]); the others keep `min_inliers: None`.
+fn chance_floors(
+    hypotheses: &mut [Hypothesis],
+    prior: &PreparedMap,
+    query: &PreparedMap,
+    config: &RelocalizeConfig,
+) {
+    verify::sort_best_first(hypotheses);
+    let Some(best_inliers) = hypotheses.first().map(|h| h.inlier_count) else {
+        return;
+    };
+    let verification = &config.verification;
+    for (k, h) in hypotheses.iter_mut().enumerate() {
+        let rival = h.inlier_count as f64 > verification.max_runner_up_ratio * best_inliers as f64
+            || h.inlier_count + verification.min_runner_up_margin > best_inliers;
+        if k == 0 || rival {
+            let chance = verify::local_chance_inliers(
+                &prior.points,
+                &query.points,
+                &h.prior_from_query,
+                config.refine.inlier_threshold_m,
+            );
+            h.min_inliers = Some(verification.min_inliers.max(chance));
+        }
     }
 }
 

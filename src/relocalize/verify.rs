@@ -12,21 +12,18 @@ use nalgebra::{Isometry3, Matrix4};
 
 /// Sort `hypotheses` best first and decide; `Ok` means the first one is accepted.
 pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Result<(), Refusal> {
-    hypotheses.sort_by(|a, b| {
-        b.inlier_count
-            .cmp(&a.inlier_count)
-            .then(a.rmse_m.total_cmp(&b.rmse_m))
-    });
+    sort_best_first(hypotheses);
     let Some(best) = hypotheses.first() else {
         return Err(Refusal::TooFewInliers {
             inliers: 0,
             required: config.min_inliers,
         });
     };
-    if best.inlier_count < config.min_inliers {
+    let required = best.min_inliers.unwrap_or(config.min_inliers);
+    if best.inlier_count < required {
         return Err(Refusal::TooFewInliers {
             inliers: best.inlier_count,
-            required: config.min_inliers,
+            required,
         });
     }
     if best.rmse_m > best.max_rmse_m {
@@ -55,6 +52,8 @@ pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Res
             max_displacement(&best.prior_from_query, &h.prior_from_query, best)
                 > config.same_hypothesis_m
         })
+        // a rival with fewer inliers than a wrong transform collects by chance (grid priors)
+        .filter(|h| h.min_inliers.is_none_or(|m| h.inlier_count >= m))
         .map(|h| h.inlier_count)
         .max()
         .unwrap_or(0);
@@ -69,28 +68,51 @@ pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Res
     Ok(())
 }
 
-/// Refined inliers a wrong transform collects by chance, bounded: `λ + k·√λ` with
-/// `λ = query landmarks × prior density × π r²` (r the inlier threshold, the density the
-/// prior's landmarks over their horizontal bounding box), `k = CHANCE_SIGMAS`. Against a grid
-/// the inlier threshold is wide and a large query meets many rocks anywhere (mirrored
-/// traverse 13, 532 landmarks, 0.15 m grid: 9 inliers; docs/design/grid-coarse-cells.md).
-pub fn chance_inliers(prior: &[nalgebra::Point3<f64>], query_landmarks: usize, r_m: f64) -> usize {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in prior {
-        lo = [lo[0].min(p.x), lo[1].min(p.y)];
-        hi = [hi[0].max(p.x), hi[1].max(p.y)];
-    }
-    let area_m2 = ((hi[0] - lo[0]) * (hi[1] - lo[1])).max(r_m * r_m);
-    if !area_m2.is_finite() {
-        return 0;
-    }
-    let lambda =
-        query_landmarks as f64 * prior.len() as f64 / area_m2 * std::f64::consts::PI * r_m * r_m;
+/// Most inliers first, then the smallest residual: the order [`decide`] judges in.
+pub fn sort_best_first(hypotheses: &mut [Hypothesis]) {
+    hypotheses.sort_by(|a, b| {
+        b.inlier_count
+            .cmp(&a.inlier_count)
+            .then(a.rmse_m.total_cmp(&b.rmse_m))
+    });
+}
+
+/// Radius (m) over which [`local_chance_inliers`] measures the prior's density around each
+/// query landmark: about ten rocks of the LAC site.
+pub const LOCAL_DENSITY_RADIUS_M: f64 = 2.0;
+
+/// Refined inliers a wrong transform collects by chance where `prior_from_query` puts the
+/// query, bounded: `λ + k·√λ`, `λ = Σᵢ nᵢ·(r/R)²` with `nᵢ` the prior landmarks within
+/// `R =` [`LOCAL_DENSITY_RADIUS_M`] (horizontally) of query landmark `i` moved into the
+/// prior, r the inlier threshold, `k = CHANCE_SIGMAS`. A query landmark that lands where
+/// the prior has no rocks (off the site, around the lander) cannot be a chance inlier and
+/// adds nothing; where it lands on the prior, λ is the uniform density's (query landmarks ×
+/// density × πr²) measured there. Against a grid the inlier threshold is wide and a large
+/// query meets many rocks anywhere (mirrored traverse 13, 532 landmarks, 0.15 m grid: 9
+/// inliers; docs/design/grid-coarse-cells.md).
+pub fn local_chance_inliers(
+    prior: &[nalgebra::Point3<f64>],
+    query: &[nalgebra::Point3<f64>],
+    prior_from_query: &Isometry3<f64>,
+    r_m: f64,
+) -> usize {
+    let radius_sq = LOCAL_DENSITY_RADIUS_M * LOCAL_DENSITY_RADIUS_M;
+    let near: usize = query
+        .iter()
+        .map(|q| {
+            let p = prior_from_query * q;
+            prior
+                .iter()
+                .filter(|o| (o.x - p.x).powi(2) + (o.y - p.y).powi(2) <= radius_sq)
+                .count()
+        })
+        .sum();
+    let lambda = near as f64 * r_m * r_m / radius_sq;
     (lambda + CHANCE_SIGMAS * lambda.sqrt()).ceil() as usize
 }
 
 /// Standard deviations of the chance inlier count (Poisson) a survey-prior hypothesis must
-/// clear (see [`chance_inliers`]).
+/// clear (see [`local_chance_inliers`]).
 pub const CHANCE_SIGMAS: f64 = 4.0;
 
 /// Standard deviation (degrees) of the yaw of `prior_from_query` fitted to `pairs`: the yaw
@@ -137,6 +159,7 @@ mod tests {
             tilt: None,
             max_rmse_m: 0.03,
             yaw_sigma_deg: None,
+            min_inliers: None,
         }
     }
 
@@ -164,22 +187,31 @@ mod tests {
     }
 
     #[test]
-    fn chance_inliers_grow_with_the_query_and_the_threshold() {
-        // 100 rocks on 10 m × 10 m: 1 per m²
+    fn local_chance_inliers_count_only_where_the_query_lands_on_the_prior() {
+        // 1 rock per m² over 10 m × 10 m
         let prior: Vec<_> = (0..100)
-            .map(|k| {
-                nalgebra::Point3::new(
-                    (k % 10) as f64 * 10.0 / 9.0,
-                    (k / 10) as f64 * 10.0 / 9.0,
-                    0.0,
-                )
-            })
+            .map(|k| nalgebra::Point3::new((k % 10) as f64 + 0.5, (k / 10) as f64 + 0.5, 0.0))
             .collect();
-        // 100 query landmarks, r = 0.1 m: λ = π, bound π + 4√π = 10.2
-        assert_eq!(chance_inliers(&prior, 100, 0.1), 11);
-        assert!(chance_inliers(&prior, 500, 0.1) > 30);
-        assert!(chance_inliers(&prior, 100, 0.2) > 11);
-        assert_eq!(chance_inliers(&[], 100, 0.1), 0);
+        let query: Vec<_> = (0..100)
+            .map(|k| nalgebra::Point3::new(4.0 + (k % 10) as f64 * 0.2, 4.0 + (k / 10) as f64 * 0.2, 0.0))
+            .collect();
+        let on_site = local_chance_inliers(&prior, &query, &Isometry3::identity(), 0.1);
+        // about π·R² = 12.6 rocks near each of 100 landmarks: λ ≈ π, as the global bound's
+        assert!((10..=12).contains(&on_site), "{on_site}");
+        let off_site = Isometry3::translation(50.0, 0.0, 0.0);
+        assert_eq!(local_chance_inliers(&prior, &query, &off_site, 0.1), 0);
+        let mut best = hyp(9, 0.01, 1.0, 0.0);
+        best.min_inliers = Some(on_site);
+        let refused = decide(&mut [best.clone()], &VerificationConfig::default());
+        assert!(matches!(refused, Err(Refusal::TooFewInliers { required, .. }) if required == on_site));
+        best.inlier_count = on_site;
+        assert!(decide(&mut [best.clone()], &VerificationConfig::default()).is_ok());
+        // a rival under its own chance count does not make the answer ambiguous
+        let mut rival = hyp(on_site - 1, 0.01, 1.0, 5.0);
+        let refused = decide(&mut [best.clone(), rival.clone()], &VerificationConfig::default());
+        assert!(matches!(refused, Err(Refusal::Ambiguous { .. })));
+        rival.min_inliers = Some(on_site);
+        assert!(decide(&mut [best, rival], &VerificationConfig::default()).is_ok());
     }
 
     #[test]
