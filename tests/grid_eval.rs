@@ -47,3 +47,27 @@ fn coarser_grids_load_and_bad_cell_sizes_are_refused() {
     let big = segloc::eval::grid::grid_prior(&data, 0.15, &Default::default(), 1422, 1).unwrap();
     assert_eq!(big.len(), 2000);
 }
+
+#[test]
+fn traverses_in_sparse_ground_are_placed_against_the_coarsest_grid() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    // 14 and 17 land where the site's rocks are sparse: the bounding box's chance count
+    // refused them by one inlier (docs/design/grid-coarse-cells.md, rule 3)
+    let options = GridEvalOptions {
+        traverses: vec![14, 17],
+        cell_size_m: 0.45,
+        trials: 1,
+        submaps: false,
+        submap_s: 60.0,
+        negatives: true,
+        seed: 1,
+        extra_rocks: 0,
+        grid_rocks: Default::default(),
+    };
+    let report = evaluate_grid(&data, &options, &RelocalizeConfig::default(), |_, _| {}).unwrap();
+    let t = &report.traverses;
+    assert_eq!((t.queries, t.within_15cm), (2, 2), "{t:?}");
+    assert_eq!(report.negatives.accepted, 0, "{:?}", report.negatives);
+}
