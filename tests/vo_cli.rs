@@ -64,7 +64,10 @@ fn kitti_frames_give_a_small_end_point_error() {
     common::assert_success(&out);
     let rows = std::fs::read_to_string(&csv).unwrap();
     let mut lines = rows.lines();
-    assert!(lines.next().unwrap().starts_with("t,tracked,inliers,features,lost"));
+    assert!(lines
+        .next()
+        .unwrap()
+        .starts_with("t,tracked,inliers,features,lost"));
     assert_eq!(lines.count(), 51, "one row a frame");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let t = v["translation_error_percent"].as_f64().unwrap();

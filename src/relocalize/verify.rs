@@ -193,7 +193,13 @@ mod tests {
             .map(|k| nalgebra::Point3::new((k % 10) as f64 + 0.5, (k / 10) as f64 + 0.5, 0.0))
             .collect();
         let query: Vec<_> = (0..100)
-            .map(|k| nalgebra::Point3::new(4.0 + (k % 10) as f64 * 0.2, 4.0 + (k / 10) as f64 * 0.2, 0.0))
+            .map(|k| {
+                nalgebra::Point3::new(
+                    4.0 + (k % 10) as f64 * 0.2,
+                    4.0 + (k / 10) as f64 * 0.2,
+                    0.0,
+                )
+            })
             .collect();
         let on_site = local_chance_inliers(&prior, &query, &Isometry3::identity(), 0.1);
         // about π·R² = 12.6 rocks near each of 100 landmarks: λ ≈ π, as the global bound's
@@ -203,12 +209,17 @@ mod tests {
         let mut best = hyp(9, 0.01, 1.0, 0.0);
         best.min_inliers = Some(on_site);
         let refused = decide(&mut [best.clone()], &VerificationConfig::default());
-        assert!(matches!(refused, Err(Refusal::TooFewInliers { required, .. }) if required == on_site));
+        assert!(
+            matches!(refused, Err(Refusal::TooFewInliers { required, .. }) if required == on_site)
+        );
         best.inlier_count = on_site;
         assert!(decide(&mut [best.clone()], &VerificationConfig::default()).is_ok());
         // a rival under its own chance count does not make the answer ambiguous
         let mut rival = hyp(on_site - 1, 0.01, 1.0, 5.0);
-        let refused = decide(&mut [best.clone(), rival.clone()], &VerificationConfig::default());
+        let refused = decide(
+            &mut [best.clone(), rival.clone()],
+            &VerificationConfig::default(),
+        );
         assert!(matches!(refused, Err(Refusal::Ambiguous { .. })));
         rival.min_inliers = Some(on_site);
         assert!(decide(&mut [best, rival], &VerificationConfig::default()).is_ok());

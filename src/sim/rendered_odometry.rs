@@ -186,9 +186,13 @@ impl RenderedOdometry {
         self.pairs += 1;
         s.render_ms.push(render_ms);
         let rate = s.gyro.read(time_s, world_from_rover);
-        let result =
-            s.odometry
-                .process_with_imu(&left.image, &right.image, time_s, Some(rate), gravity_rover);
+        let result = s.odometry.process_with_imu(
+            &left.image,
+            &right.image,
+            time_s,
+            Some(rate),
+            gravity_rover,
+        );
         s.vo_ms.push(result.time_ms);
         s.tracked.push(result.tracked as f64);
         s.lost += usize::from(result.lost);
