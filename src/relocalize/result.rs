@@ -144,9 +144,10 @@ pub struct Hypothesis {
     /// Widened (grid) tolerances only: the standard deviation (degrees) of the yaw from the
     /// inliers' covariances (see `VerificationConfig::max_yaw_sigma_deg`).
     pub yaw_sigma_deg: Option<f64>,
-    /// Widened (grid) tolerances only, on the best hypothesis: the fewest inliers it needs,
-    /// raised to what a wrong transform collects by chance where this one puts the query
-    /// (see [`super::verify::local_chance_inliers`]); otherwise the configuration's.
+    /// Widened (grid) tolerances only, on the best hypothesis and on those that could make
+    /// it ambiguous: the fewest inliers it needs, raised to what a wrong transform collects
+    /// by chance where this one puts the query (see [`super::verify::local_chance_inliers`]);
+    /// `None`: the configuration's.
     pub min_inliers: Option<usize>,
 }
 
