@@ -132,7 +132,9 @@ impl Relocalizer {
             consistency::build_graph(prior, &query, &associations, dof, &config.consistency)?;
         timings.graph_ms = ms_since(t);
         let tolerances = Tolerances::from_summary(&summary, &config.consistency);
-        let scaled = self.scaled_config(&tolerances);
+        // grid priors: the configuration scaled to the widened tolerances (`None` for
+        // session maps); the chance floors come per hypothesis below
+        let scaled = tolerances.scaled(&self.config);
         let config = scaled.as_ref().unwrap_or(config);
 
         // Graph → cliques → aligned and refined hypotheses.
@@ -180,13 +182,6 @@ impl Relocalizer {
                 timings,
             },
         })
-    }
-
-    /// The configuration scaled to widened (grid) tolerances; `None` when the tolerances
-    /// were not widened (session maps). The best hypothesis' fewest inliers is raised to
-    /// its chance count later, where it puts the query.
-    fn scaled_config(&self, tolerances: &Tolerances) -> Option<RelocalizeConfig> {
-        tolerances.scaled(&self.config)
     }
 
     /// The refusal of a query map too small to fix a transform.
@@ -282,9 +277,7 @@ fn chance_floors(
     };
     let verification = &config.verification;
     for (k, h) in hypotheses.iter_mut().enumerate() {
-        let rival = h.inlier_count as f64 > verification.max_runner_up_ratio * best_inliers as f64
-            || h.inlier_count + verification.min_runner_up_margin > best_inliers;
-        if k == 0 || rival {
+        if k == 0 || verify::is_rival(h.inlier_count, best_inliers, verification) {
             let chance = verify::local_chance_inliers(
                 &prior.points,
                 &query.points,

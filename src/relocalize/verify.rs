@@ -57,15 +57,21 @@ pub fn decide(hypotheses: &mut [Hypothesis], config: &VerificationConfig) -> Res
         .map(|h| h.inlier_count)
         .max()
         .unwrap_or(0);
-    let ratio_ok = (runner_up as f64) <= config.max_runner_up_ratio * best.inlier_count as f64;
-    let margin_ok = best.inlier_count >= runner_up + config.min_runner_up_margin;
-    if !(ratio_ok && margin_ok) {
+    if is_rival(runner_up, best.inlier_count, config) {
         return Err(Refusal::Ambiguous {
             best_inliers: best.inlier_count,
             runner_up_inliers: runner_up,
         });
     }
     Ok(())
+}
+
+/// Whether a different hypothesis with `inliers` makes the best one (`best_inliers`)
+/// ambiguous: above `max_runner_up_ratio` of it, or within `min_runner_up_margin` of it.
+pub fn is_rival(inliers: usize, best_inliers: usize, config: &VerificationConfig) -> bool {
+    let ratio_ok = (inliers as f64) <= config.max_runner_up_ratio * best_inliers as f64;
+    let margin_ok = best_inliers >= inliers + config.min_runner_up_margin;
+    !(ratio_ok && margin_ok)
 }
 
 /// Most inliers first, then the smallest residual: the order [`decide`] judges in.

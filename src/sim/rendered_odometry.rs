@@ -6,10 +6,9 @@
 //! pair ([`Gyro`]) → measure the left camera's motion with the stereo visual odometry
 //! ([`StereoOdometry`]), given the gyro and the IMU's gravity as `segloc vo --images` is
 //! (tilt anchored to gravity, heading from the bias-corrected gyro) → move it to the rover
-//! frame. The ticks between two pairs move by a
-//! tick's share of the last measured motion (constant velocity, what the planner drives on);
-//! the tick of the next pair takes what is left, so that the odometry over a pair's
-//! interval is exactly the VO's.
+//! frame. The ticks between two pairs move by a tick's share of the last measured motion
+//! (constant velocity, what the planner drives on); the tick of the next pair takes what is
+//! left, so that the odometry over a pair's interval is exactly the VO's.
 
 use crate::graph::StereoCalibration;
 use crate::sim::gyro::{Gyro, GyroConfig};
