@@ -131,6 +131,19 @@ fn cli_json_has_the_report_fields() {
     ] {
         assert!(dir.path().join(file).is_file(), "{file} missing");
     }
+    // each session's trajectories as TUM files, one line per camera frame, 8 numbers each
+    for session in [1, 2] {
+        for kind in ["truth", "estimate", "odometry"] {
+            let path = dir.path().join(format!("session{session}_{kind}.tum"));
+            let text = std::fs::read_to_string(&path).unwrap();
+            assert!(text.lines().count() >= 50, "{}", path.display());
+            assert!(text.lines().all(|l| l
+                .split(' ')
+                .filter_map(|x| x.parse::<f64>().ok())
+                .count()
+                == 8));
+        }
+    }
 }
 
 #[test]

@@ -28,7 +28,8 @@ pub struct MissionArgs {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// Write report.json and the pictures into this directory.
+    /// Write report.json, the pictures and each session's trajectories (TUM: truth, estimate,
+    /// odometry alone) into this directory.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Mission configuration (TOML, fields of `MissionConfig`); defaults otherwise. Its
@@ -319,7 +320,7 @@ pub fn print_summary(output: &MissionOutput, out: Option<&Path>) {
             ""
         };
         println!(
-            "wrote report.json, height_error.png, rock_map.png, trajectories.png{recording} to {}",
+            "wrote report.json, height_error.png, rock_map.png, trajectories.png, sessionN_{{truth,estimate,odometry}}.tum{recording} to {}",
             dir.display()
         );
     }

@@ -449,8 +449,9 @@ pub enum OutputError {
 }
 
 impl MissionOutput {
-    /// Write `report.json`, `height_error.png`, `rock_map.png` and `trajectories.png` into
-    /// `dir` (created if missing), each file atomically; with the cargo feature `rerun`,
+    /// Write `report.json`, `height_error.png`, `rock_map.png`, `trajectories.png` and the
+    /// sessions' trajectories (`sessionN_{truth,estimate,odometry}.tum`) into `dir` (created
+    /// if missing), each file atomically; with the cargo feature `rerun`,
     /// also `mission.rrd`, a recording of the run for the Rerun viewer.
     pub fn write(&self, dir: &Path) -> Result<(), OutputError> {
         std::fs::create_dir_all(dir).map_err(|e| OutputError::Directory {
@@ -505,8 +506,30 @@ impl MissionOutput {
                 ("trajectories", &dir.join("trajectories.png")),
             ],
         )?;
+        self.write_trajectories(dir)?;
         let json = serde_json::to_vec_pretty(r)?;
         segloc_maps::write_atomic(&dir.join("report.json"), &json)?;
+        Ok(())
+    }
+
+    /// Each session's rover poses at its camera frames as TUM files (what `evo` reads):
+    /// `sessionN_truth.tum`, `sessionN_estimate.tum` (the pose graph after the session) and
+    /// `sessionN_odometry.tum` (odometry alone, aligned at the true start), world frame.
+    fn write_trajectories(&self, dir: &Path) -> Result<(), OutputError> {
+        type Pick = fn(&super::trace::TraceFrame) -> Isometry3<f64>;
+        let kinds: [(&str, Pick); 3] = [
+            ("truth", |f| f.world_from_rover_true),
+            ("estimate", |f| f.world_from_rover_estimate),
+            ("odometry", |f| f.world_from_rover_odometry),
+        ];
+        for session in &self.trace.sessions {
+            for (kind, pick) in kinds {
+                let poses: Vec<(f64, Isometry3<f64>)> =
+                    session.frames.iter().map(|f| (f.time_s, pick(f))).collect();
+                let path = dir.join(format!("session{}_{kind}.tum", session.session));
+                segloc_maps::write_atomic(&path, crate::vo::tum::tum_text(&poses).as_bytes())?;
+            }
+        }
         Ok(())
     }
 }
