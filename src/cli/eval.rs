@@ -475,15 +475,15 @@ fn cm(value: Option<f64>) -> String {
 
 fn print_stream_table(report: &StreamReport) {
     println!(
-        "{:>5} {:>5} {:>6} {:>5} {:>6} {:>4} {:>4} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>5} {:>6} {:>6} {:>7}  refused",
+        "{:>5} {:>5} {:>6} {:>5} {:>6} {:>4} {:>4} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>5} {:>6} {:>6} {:>7}  refused",
         "prior", "query", "common", "step", "frames", "att", "acc", "fix_s", "online", "smooth",
-        "pre_ba", "odom", "oracle", "seen", "online", "wrong", "ms_med", "ms_p99", "ms_att"
+        "pre_ba", "odom", "oracle", "cal_orc", "seen", "online", "wrong", "ms_med", "ms_p99", "ms_att"
     );
     for p in &report.pairs {
         let refused: Vec<String> = p.refused.iter().map(|(k, n)| format!("{k} {n}")).collect();
         let (all, seen) = (&p.rmse, &p.rmse_seeing_prior);
         println!(
-            "{:>5} {:>5} {:>6} {:>5} {:>6} {:>4} {:>4} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>5} {:>6.2} {:>6.2} {:>7.1}  {}",
+            "{:>5} {:>5} {:>6} {:>5} {:>6} {:>4} {:>4} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>5} {:>6.2} {:>6.2} {:>7.1}  {}",
             p.prior,
             p.query,
             p.common_landmarks,
@@ -498,6 +498,7 @@ fn print_stream_table(report: &StreamReport) {
             cm(all.before_adjustment_m),
             cm(all.odometry_m),
             cm(all.oracle_m),
+            cm(all.calibrated_oracle_m),
             seen.frames,
             cm(seen.online_m),
             p.wrong_fixes.len(),
@@ -511,7 +512,8 @@ fn print_stream_table(report: &StreamReport) {
     println!(
         "(RMSE in cm over the frames from the first fix on: online, smoothed, smoothed before \
          the boulder adjustment, odometry alone aligned at the first frame, the fix oracle \
-         (frames seeing the prior map placed exactly, odometry between); then the frames \
+         (frames seeing the prior map placed exactly, odometry between), the same on perfectly \
+         calibrated odometry (its random walk only); then the frames \
          among them that see the prior map and their online RMSE)"
     );
     println!(

@@ -116,6 +116,10 @@ pub struct Drive {
     pub frame_step: u64,
     /// Horizontal distance driven, m.
     pub distance_m: f64,
+    /// The drive's odometry (`world_from_rover`, aligned with the truth at the first frame)
+    /// with its deterministic drift removed (no yaw drift, no scale error), its random walk
+    /// kept: what a perfect calibration of the odometry would leave.
+    pub calibrated_odometry: Vec<Isometry3<f64>>,
 }
 
 /// The ten ordered pairs of the LunarLoc paper: each of [`PAPER_PAIRS`] with the first as
@@ -275,6 +279,12 @@ pub fn drive_from_traverse(
         .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ (number as u64).wrapping_mul(0x9E37_79B9));
     let start = random_start(&mut rng);
+    let walk_only = DriftConfig {
+        yaw_drift_deg_per_10m: 0.0,
+        scale_error: 0.0,
+        ..*drift
+    };
+    let calibrated_odometry = drifted_odometry(&truth, &walk_only, truth[0], &mut rng.clone());
     let odometry = drifted_odometry(&truth, drift, start, &mut rng);
     let frames = rows
         .iter()
@@ -311,6 +321,7 @@ pub fn drive_from_traverse(
         truth,
         frame_step: detection_step(traverse),
         distance_m,
+        calibrated_odometry,
     }
 }
 
@@ -353,6 +364,39 @@ pub struct Rmse {
     /// relocalizer without drift calibration would leave where the prior map is out of
     /// sight.
     pub oracle_m: Option<f64>,
+    /// The fix oracle on perfectly calibrated odometry ([`Drive::calibrated_odometry`]:
+    /// only the random walk left): a floor for any estimator that places the frames out of
+    /// the prior's sight by the odometry.
+    pub calibrated_oracle_m: Option<f64>,
+}
+
+/// Distances driven out of the prior map's sight ([`PairRow::unseen_path_m`]), m.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct UnseenPath {
+    /// Root mean square over the frames.
+    pub rms: f64,
+    /// The longest.
+    pub max: f64,
+}
+
+/// From frame `from` on, the path each frame has driven since the latest frame that sees
+/// the prior map (zero on such frames).
+fn unseen_path(truth: &[Isometry3<f64>], seeing: &[bool], from: usize) -> UnseenPath {
+    let mut path = 0.0;
+    let mut lengths = Vec::new();
+    for k in from..truth.len() {
+        path = if seeing[k] || k == 0 {
+            0.0
+        } else {
+            path + (truth[k].translation.vector - truth[k - 1].translation.vector).norm()
+        };
+        lengths.push(path);
+    }
+    let n = lengths.len().max(1) as f64;
+    UnseenPath {
+        rms: (lengths.iter().map(|d| d * d).sum::<f64>() / n).sqrt(),
+        max: lengths.iter().copied().fold(0.0, f64::max),
+    }
 }
 
 /// Wall time of the localizer's frames, milliseconds.
@@ -406,6 +450,9 @@ pub struct PairRow {
     /// map (a detection within [`SEES_PRIOR_M`] of one of its landmarks): where the prior map
     /// can correct the rover at all.
     pub rmse_seeing_prior: Rmse,
+    /// From the first fix on, the distance each frame has driven since it last saw the
+    /// prior map (what only the odometry carries): root mean square and maximum, m.
+    pub unseen_path_m: UnseenPath,
     /// The largest position error of an accepted fix, m.
     pub max_fix_error_m: Option<f64>,
     /// Every accepted fix, scored.
@@ -504,7 +551,7 @@ fn rmse_over(
     r: &Replay,
     truth: &[Isometry3<f64>],
     odometry: &[Isometry3<f64>],
-    oracle: &[Isometry3<f64>],
+    oracles: [&[Isometry3<f64>]; 2],
 ) -> Rmse {
     let over = |poses: &[Isometry3<f64>]| {
         rmse_m(
@@ -524,7 +571,8 @@ fn rmse_over(
         smoothed_m: over(&r.session.poses),
         before_adjustment_m: over(&r.session.poses_before_adjustment),
         odometry_m: over(odometry),
-        oracle_m: over(oracle),
+        oracle_m: over(oracles[0]),
+        calibrated_oracle_m: over(oracles[1]),
     }
 }
 
@@ -575,6 +623,8 @@ pub fn run_pair(
     let after: Vec<bool> = (0..truth.len()).map(|k| k >= from).collect();
     let after_seeing: Vec<bool> = after.iter().zip(&seeing).map(|(a, s)| *a && *s).collect();
     let oracle = oracle_poses(truth, &odometry, &seeing, from);
+    let calibrated_oracle = oracle_poses(truth, &drive.calibrated_odometry, &seeing, from);
+    let oracles = [oracle.as_slice(), calibrated_oracle.as_slice()];
     let attempts = &r.session.attempts;
     let mut refused = BTreeMap::new();
     for a in attempts.iter().filter(|a| !a.accepted()) {
@@ -594,8 +644,9 @@ pub fn run_pair(
         refused,
         first_fix_frame: first_fix,
         time_to_first_fix_s: first_fix.map(|k| drive.frames[k].t - drive.frames[0].t),
-        rmse: rmse_over(&after, &r, truth, &odometry, &oracle),
-        rmse_seeing_prior: rmse_over(&after_seeing, &r, truth, &odometry, &oracle),
+        rmse: rmse_over(&after, &r, truth, &odometry, oracles),
+        rmse_seeing_prior: rmse_over(&after_seeing, &r, truth, &odometry, oracles),
+        unseen_path_m: unseen_path(truth, &seeing, from),
         max_fix_error_m: fixes.iter().map(|f| f.error_m).reduce(f64::max),
         wrong_fixes: fixes.iter().filter(|f| f.wrong).cloned().collect(),
         fixes,
@@ -882,6 +933,27 @@ mod tests {
             assert!((p - Point3::new(2.0, -2.0, -0.1)).norm() < 1e-9, "{p}");
         }
         assert!((drive.distance_m - 3.8).abs() < 1e-9);
+    }
+
+    #[test]
+    fn calibrated_odometry_keeps_only_the_random_walk() {
+        let t = straight();
+        let no_walk = DriftConfig {
+            yaw_walk_rad_per_sqrt_m: 0.0,
+            ..DriftConfig::default()
+        };
+        let drive = drive_from_traverse(1, &t, &no_walk, 1);
+        for (c, truth) in drive.calibrated_odometry.iter().zip(&drive.truth) {
+            assert!((c.translation.vector - truth.translation.vector).norm() < 1e-9);
+        }
+        let walking = drive_from_traverse(1, &t, &DriftConfig::default(), 1);
+        let end = walking
+            .calibrated_odometry
+            .last()
+            .map(|p| p.translation.vector);
+        let truth_end = walking.truth.last().map(|p| p.translation.vector);
+        let gap = (end.unwrap_or_default() - truth_end.unwrap_or_default()).norm();
+        assert!(gap > 0.0 && gap < 0.05, "{gap}");
     }
 
     #[test]
