@@ -9,6 +9,7 @@ use common::{assert_success, segloc, stderr_of};
 
 #[test]
 fn short_rendered_mission_reports_perception() {
+    let dir = tempfile::tempdir().unwrap();
     let output = segloc()
         .args([
             "mission",
@@ -20,12 +21,23 @@ fn short_rendered_mission_reports_perception() {
             "rendered",
             "--half",
             "--json",
+            "--out",
         ])
+        .arg(dir.path())
         .output()
         .unwrap();
     assert_success(&output);
     let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(v["sessions"].as_array().map(Vec::len), Some(2));
+    // every VO pair of each session, with the odometry's and the true pose, in a CSV
+    for session in [1, 2] {
+        let csv =
+            std::fs::read_to_string(dir.path().join(format!("session{session}_vo.csv"))).unwrap();
+        let mut lines = csv.lines();
+        assert!(lines.next().unwrap().starts_with("time_s,tracked,inliers"));
+        assert_eq!(lines.clone().count(), 301);
+        assert!(lines.all(|l| l.split(',').count() == 15));
+    }
     let p = &v["perception"];
     // two pairs (front, back) per camera frame, 31 frames per 30 s session
     assert_eq!(p["pairs"].as_u64(), Some(2 * 2 * 31), "{p}");

@@ -448,6 +448,35 @@ pub enum OutputError {
     Recording(#[from] super::recording::RecordingError),
 }
 
+/// The image odometry's pairs as CSV: the VO's diagnostics, then the odometry's and the true
+/// rover position and yaw (x, y, z m, yaw degrees), one line per pair.
+fn vo_pairs_csv(pairs: &[crate::sim::rendered_odometry::PairRecord]) -> String {
+    let pose = |p: &Isometry3<f64>| {
+        let v = p.translation.vector;
+        let yaw = p.rotation.euler_angles().2.to_degrees();
+        format!("{:.4},{:.4},{:.4},{yaw:.3}", v.x, v.y, v.z)
+    };
+    let mut out = String::from(
+        "time_s,tracked,inliers,features,lost,gyro_rotation,vo_ms,\
+         odom_x,odom_y,odom_z,odom_yaw_deg,true_x,true_y,true_z,true_yaw_deg\n",
+    );
+    for p in pairs {
+        out += &format!(
+            "{:.2},{},{},{},{},{},{:.1},{},{}\n",
+            p.time_s,
+            p.tracked,
+            p.inliers,
+            p.features,
+            u8::from(p.lost),
+            u8::from(p.gyro_rotation),
+            p.vo_ms,
+            pose(&p.odom_from_rover),
+            pose(&p.world_from_rover)
+        );
+    }
+    out
+}
+
 impl MissionOutput {
     /// Write `report.json`, `height_error.png`, `rock_map.png`, `trajectories.png` and the
     /// sessions' trajectories (`sessionN_{truth,estimate,odometry}.tum`) into `dir` (created
@@ -528,6 +557,12 @@ impl MissionOutput {
                     session.frames.iter().map(|f| (f.time_s, pick(f))).collect();
                 let path = dir.join(format!("session{}_{kind}.tum", session.session));
                 segloc_maps::write_atomic(&path, crate::vo::tum::tum_text(&poses).as_bytes())?;
+            }
+        }
+        for (k, session) in self.report.sessions.iter().enumerate() {
+            if let Some(odometry) = &session.image_odometry {
+                let path = dir.join(format!("session{}_vo.csv", k + 1));
+                segloc_maps::write_atomic(&path, vo_pairs_csv(&odometry.per_pair).as_bytes())?;
             }
         }
         Ok(())

@@ -61,6 +61,33 @@ pub struct ImageOdometryStats {
     pub render_ms: Quantiles,
     /// The VO on one pair, milliseconds.
     pub vo_ms: Quantiles,
+    /// Every pair (written as `sessionN_vo.csv` by `segloc mission --out`, not to the
+    /// report).
+    #[serde(skip)]
+    pub per_pair: Vec<PairRecord>,
+}
+
+/// What the VO did on one stereo pair, beside where the rover truly was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairRecord {
+    /// Session time, s.
+    pub time_s: f64,
+    /// Features tracked from the previous pair.
+    pub tracked: usize,
+    /// Inliers of the motion estimate.
+    pub inliers: usize,
+    /// Features alive after the pair.
+    pub features: usize,
+    /// The image motion could not be estimated.
+    pub lost: bool,
+    /// The rotation is the gyro's.
+    pub gyro_rotation: bool,
+    /// The VO's time on the pair, ms.
+    pub vo_ms: f64,
+    /// The odometry's pose of the rover after the pair.
+    pub odom_from_rover: Isometry3<f64>,
+    /// The true pose of the rover.
+    pub world_from_rover: Isometry3<f64>,
 }
 
 /// One session's odometry state.
@@ -78,6 +105,7 @@ struct SessionOdometry {
     vo_ms: Vec<f64>,
     lost: usize,
     gyro_rotation: usize,
+    pairs: Vec<PairRecord>,
 }
 
 /// The stereo VO on rendered pairs, one session at a time.
@@ -127,6 +155,7 @@ impl RenderedOdometry {
             vo_ms: Vec::new(),
             lost: 0,
             gyro_rotation: 0,
+            pairs: Vec::new(),
         });
         self.process_pair(renderer, time_s, world_from_rover, gravity_rover);
         Ok(())
@@ -196,7 +225,19 @@ impl RenderedOdometry {
         s.tracked.push(result.tracked as f64);
         s.lost += usize::from(result.lost);
         s.gyro_rotation += usize::from(result.gyro_rotation);
-        Some(self.rover_from_left * result.pose * self.rover_from_left.inverse())
+        let odom_from_rover = self.rover_from_left * result.pose * self.rover_from_left.inverse();
+        s.pairs.push(PairRecord {
+            time_s,
+            tracked: result.tracked,
+            inliers: result.inliers,
+            features: result.features,
+            lost: result.lost,
+            gyro_rotation: result.gyro_rotation,
+            vo_ms: result.time_ms,
+            odom_from_rover,
+            world_from_rover: *world_from_rover,
+        });
+        Some(odom_from_rover)
     }
 
     /// The current session's figures (`None` before the first session).
@@ -210,6 +251,7 @@ impl RenderedOdometry {
             tracked_median: Quantiles::of(&s.tracked).median,
             render_ms: Quantiles::of(&s.render_ms),
             vo_ms: Quantiles::of(&s.vo_ms),
+            per_pair: s.pairs.clone(),
         })
     }
 }
