@@ -29,7 +29,8 @@ pub struct MissionArgs {
     #[arg(long)]
     pub json: bool,
     /// Write report.json, the pictures and each session's trajectories (TUM: truth, estimate,
-    /// odometry alone; with `--sensors rendered`, every VO pair as `sessionN_vo.csv`) into this directory.
+    /// odometry alone; with `--sensors rendered`, every VO pair as `sessionN_vo.csv`) into
+    /// this directory.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Mission configuration (TOML, fields of `MissionConfig`); defaults otherwise. Its
