@@ -36,7 +36,7 @@ fn short_rendered_mission_reports_perception() {
         let mut lines = csv.lines();
         assert!(lines.next().unwrap().starts_with("time_s,tracked,inliers"));
         assert_eq!(lines.clone().count(), 301);
-        assert!(lines.all(|l| l.split(',').count() == 15));
+        assert!(lines.all(|l| l.split(',').count() == 16));
     }
     let p = &v["perception"];
     // two pairs (front, back) per camera frame, 31 frames per 30 s session

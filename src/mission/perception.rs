@@ -92,6 +92,11 @@ impl PerceptionConfig {
         if let Err(e) = self.image_odometry.vo.validate() {
             return bad(format!("perception.image_odometry.vo: {e}"));
         }
+        if let Some(field) = self.image_odometry.wheel.invalid_field() {
+            return bad(format!(
+                "perception.image_odometry.wheel.{field} must be finite and >= 0"
+            ));
+        }
         Ok(())
     }
 

@@ -457,18 +457,19 @@ fn vo_pairs_csv(pairs: &[crate::sim::rendered_odometry::PairRecord]) -> String {
         format!("{:.4},{:.4},{:.4},{yaw:.3}", v.x, v.y, v.z)
     };
     let mut out = String::from(
-        "time_s,tracked,inliers,features,lost,gyro_rotation,vo_ms,\
+        "time_s,tracked,inliers,features,lost,gyro_rotation,wheel_translation,vo_ms,\
          odom_x,odom_y,odom_z,odom_yaw_deg,true_x,true_y,true_z,true_yaw_deg\n",
     );
     for p in pairs {
         out += &format!(
-            "{:.2},{},{},{},{},{},{:.1},{},{}\n",
+            "{:.2},{},{},{},{},{},{},{:.1},{},{}\n",
             p.time_s,
             p.tracked,
             p.inliers,
             p.features,
             u8::from(p.lost),
             u8::from(p.gyro_rotation),
+            u8::from(p.wheel_translation),
             p.vo_ms,
             pose(&p.odom_from_rover),
             pose(&p.world_from_rover)

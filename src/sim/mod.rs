@@ -7,7 +7,7 @@
 //!   its geometry);
 //! - [`sensors`]: stereo boulder detections and ground points ([`stereo_noise`]),
 //!   [`visual_odometry`] and the IMU's gravity direction; [`gyro`], the IMU's angular rate
-//!   for rendered drives;
+//!   for rendered drives, and [`wheel_odometry`], the distance the wheels count;
 //! - [`session`]: one driving session with the planner ([`crate::planning`]), logged in a
 //!   [`session_log::SessionLog`].
 //!
@@ -31,6 +31,7 @@ pub mod session_config;
 pub mod session_log;
 pub mod value_noise;
 pub mod visual_odometry;
+pub mod wheel_odometry;
 pub mod world_rays;
 
 pub use crate::ipex;

@@ -6,7 +6,8 @@
 //! pair ([`Gyro`]) → measure the left camera's motion with the stereo visual odometry
 //! ([`StereoOdometry`]), given the gyro and the IMU's gravity as `segloc vo --images` is
 //! (tilt anchored to gravity, heading from the bias-corrected gyro) → move it to the rover
-//! frame. The ticks between two pairs move by a tick's share of the last measured motion
+//! frame; where the VO lost the pair or its translation disagrees with the wheels', take
+//! the wheels' distance instead ([`crate::sim::wheel_odometry`]). The ticks between two pairs move by a tick's share of the last measured motion
 //! (constant velocity, what the planner drives on); the tick of the next pair takes what is
 //! left, so that the odometry over a pair's interval is exactly the VO's.
 
@@ -14,6 +15,7 @@ use crate::graph::StereoCalibration;
 use crate::sim::gyro::{Gyro, GyroConfig};
 use crate::sim::render::scoring::Quantiles;
 use crate::sim::render::{rover_from_front_left_optical, Renderer};
+use crate::sim::wheel_odometry::{take_wheels, wheel_motion, WheelOdometry, WheelOdometryConfig};
 use crate::vo::{StereoOdometry, VoConfig, VoError};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -32,6 +34,8 @@ pub struct ImageOdometryConfig {
     pub vo: VoConfig,
     /// The gyro the odometry reads.
     pub gyro: GyroConfig,
+    /// The wheel odometry the VO falls back on.
+    pub wheel: WheelOdometryConfig,
 }
 
 impl Default for ImageOdometryConfig {
@@ -40,6 +44,7 @@ impl Default for ImageOdometryConfig {
             period_ticks: 2,
             vo: VoConfig::default(),
             gyro: GyroConfig::default(),
+            wheel: WheelOdometryConfig::default(),
         }
     }
 }
@@ -55,6 +60,8 @@ pub struct ImageOdometryStats {
     pub lost: usize,
     /// Pairs whose rotation is the gyro's (the image motion failed or disagreed with it).
     pub gyro_rotation: usize,
+    /// Pairs whose translation is the wheels' (the VO lost the pair or disagreed with them).
+    pub wheel_translation: usize,
     /// Features tracked from the previous pair, median.
     pub tracked_median: f64,
     /// Rendering one pair (both views), milliseconds.
@@ -82,6 +89,8 @@ pub struct PairRecord {
     pub lost: bool,
     /// The rotation is the gyro's.
     pub gyro_rotation: bool,
+    /// The translation is the wheels'.
+    pub wheel_translation: bool,
     /// The VO's time on the pair, ms.
     pub vo_ms: f64,
     /// The odometry's pose of the rover after the pair.
@@ -94,6 +103,13 @@ pub struct PairRecord {
 struct SessionOdometry {
     odometry: StereoOdometry,
     gyro: Gyro,
+    wheels: WheelOdometry,
+    /// The VO's own `odom_from_rover` at the last pair.
+    vo_at_pair: Isometry3<f64>,
+    /// The true pose at the last pair (what the wheels turn over).
+    world_from_rover_at_pair: Option<Isometry3<f64>>,
+    /// `odom_from_rover` after the last pair, the wheels' steps included.
+    odom_from_rover: Isometry3<f64>,
     /// `odom_from_rover` measured at the last pair.
     odom_from_rover_at_pair: Isometry3<f64>,
     /// The steps handed out since the last pair, composed.
@@ -105,6 +121,7 @@ struct SessionOdometry {
     vo_ms: Vec<f64>,
     lost: usize,
     gyro_rotation: usize,
+    wheel_translation: usize,
     pairs: Vec<PairRecord>,
 }
 
@@ -147,6 +164,10 @@ impl RenderedOdometry {
         self.session = Some(SessionOdometry {
             odometry,
             gyro: Gyro::new(&self.config.gyro, seed),
+            wheels: WheelOdometry::new(&self.config.wheel, seed),
+            vo_at_pair: Isometry3::identity(),
+            world_from_rover_at_pair: None,
+            odom_from_rover: Isometry3::identity(),
             odom_from_rover_at_pair: Isometry3::identity(),
             since_pair: Isometry3::identity(),
             per_tick: Isometry3::identity(),
@@ -155,6 +176,7 @@ impl RenderedOdometry {
             vo_ms: Vec::new(),
             lost: 0,
             gyro_rotation: 0,
+            wheel_translation: 0,
             pairs: Vec::new(),
         });
         self.process_pair(renderer, time_s, world_from_rover, gravity_rover);
@@ -225,7 +247,23 @@ impl RenderedOdometry {
         s.tracked.push(result.tracked as f64);
         s.lost += usize::from(result.lost);
         s.gyro_rotation += usize::from(result.gyro_rotation);
-        let odom_from_rover = self.rover_from_left * result.pose * self.rover_from_left.inverse();
+        let vo_pose = self.rover_from_left * result.pose * self.rover_from_left.inverse();
+        let vo_motion = s.vo_at_pair.inverse() * vo_pose;
+        s.vo_at_pair = vo_pose;
+        let mut motion = vo_motion;
+        let mut wheel_translation = false;
+        if let Some(before) = s.world_from_rover_at_pair {
+            let distance_m = s.wheels.distance_m(&(before.inverse() * world_from_rover));
+            let wheels = wheel_motion(&vo_motion, distance_m);
+            if take_wheels(&self.config.wheel, result.lost, &vo_motion, &wheels) {
+                motion = wheels;
+                wheel_translation = true;
+            }
+        }
+        s.world_from_rover_at_pair = Some(*world_from_rover);
+        s.wheel_translation += usize::from(wheel_translation);
+        s.odom_from_rover *= motion;
+        let odom_from_rover = s.odom_from_rover;
         s.pairs.push(PairRecord {
             time_s,
             tracked: result.tracked,
@@ -233,6 +271,7 @@ impl RenderedOdometry {
             features: result.features,
             lost: result.lost,
             gyro_rotation: result.gyro_rotation,
+            wheel_translation,
             vo_ms: result.time_ms,
             odom_from_rover,
             world_from_rover: *world_from_rover,
@@ -248,6 +287,7 @@ impl RenderedOdometry {
             pairs: s.vo_ms.len(),
             lost: s.lost,
             gyro_rotation: s.gyro_rotation,
+            wheel_translation: s.wheel_translation,
             tracked_median: Quantiles::of(&s.tracked).median,
             render_ms: Quantiles::of(&s.render_ms),
             vo_ms: Quantiles::of(&s.vo_ms),
@@ -322,5 +362,40 @@ mod tests {
         let stats = odometry.session_stats().unwrap();
         assert_eq!(stats.pairs, 11);
         assert_eq!(stats.lost, 0);
+        // on lit, textured ground the VO's translation stands: the wheels are not taken
+        assert_eq!(stats.wheel_translation, 0);
+    }
+
+    #[test]
+    fn a_blind_pair_moves_by_the_wheels() {
+        let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
+        let render = RenderConfig {
+            resolution_scale: 0.5,
+            ..RenderConfig::default()
+        };
+        let renderer = Renderer::new(&moon, &render, 4).unwrap();
+        let config = ImageOdometryConfig {
+            wheel: WheelOdometryConfig {
+                scale_sigma: 0.0,
+                noise_fraction: 0.0,
+                ..WheelOdometryConfig::default()
+            },
+            ..ImageOdometryConfig::default()
+        };
+        let mut odometry = RenderedOdometry::new(&config, &renderer).unwrap();
+        let (x, y) = moon.nearest_clear_position(5.0, 3.0, 1.0, 0.08);
+        let pose_at = |d: f64| RoverState::at_rest(x + d, y, 0.0).pose(&moon);
+        odometry
+            .begin_session(&renderer, 9, 0.0, &pose_at(0.0), None)
+            .unwrap();
+        // the rover jumps 0.5 m between two pairs, farther than the VO can track: the pair's
+        // translation is the wheels'
+        odometry.measure(&renderer, 1, 0.05, &pose_at(0.25), None);
+        let step = odometry.measure(&renderer, 2, 0.1, &pose_at(0.5), None);
+        let stats = odometry.session_stats().unwrap();
+        assert_eq!(stats.wheel_translation, 1, "{stats:?}");
+        let truth = pose_at(0.0).inverse() * pose_at(0.5);
+        let forward = truth.translation.vector.x;
+        assert!((step.translation.vector.norm() - forward).abs() < 0.01 * forward + 0.005);
     }
 }
