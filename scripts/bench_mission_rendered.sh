@@ -48,9 +48,16 @@ print("## The mission on rendered images (`segloc mission --sensors rendered`)\n
 print(f"`scripts/bench_mission_rendered.sh` ({cmd} --json; beside `--sensors model`) — "
       f"{datetime.date.today()}, AMD EPYC, 2 cores, commit `{sh('git rev-parse --short HEAD')}`; "
       "the front end's geometric segmenter, its boulders replace the sensor model's everywhere.\n")
-print("| seed | wrong acc. | coll. | S2 RMSE cm | LAC geo / rocks | model: wrong, coll., S2 cm, geo / rocks "
+print("| seed | wrong acc. | coll. | S1 / S2 RMSE cm | LAC geo / rocks | model: wrong, coll., S2 cm, geo / rocks "
+      "| VO drift S1 / S2 | VO lost / wheel pairs S1; S2 "
       "| recall / precision | centroid err. med / p90 cm | render ms | front end ms med / p99 | wall min |")
-print("|---|---|---|---|---|---|---|---|---|---|---|")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+def vo(r):
+    ss = r["sessions"]
+    drift = " / ".join("–" if x.get("vo_drift_percent") is None else f"{x['vo_drift_percent']:.2f} %" for x in ss)
+    io = [x.get("image_odometry") or {} for x in ss]
+    pairs = "; ".join(f"{o.get('lost', '–')} / {o.get('wheel_translation', '–')}" for o in io)
+    return drift, pairs
 for s in seeds:
     r = json.load(open(f"{d}/r{s}.json"))
     w, c, s2, g, k = fig(r)
@@ -58,7 +65,9 @@ for s in seeds:
     model = "%d, %d, %.2f, %.1f / %.1f" % fig(json.load(open(m))) if os.path.exists(m) else "–"
     p = r["perception"]
     e, fe = p["centroid_error_m"], p["front_end_ms"]
-    print(f"| {s} | {w} | {c} | {s2:.2f} | {g:.1f} / {k:.1f} | {model} | {p['recall']:.2f} / {p['precision']:.2f} "
+    s1 = 100 * r["sessions"][0]["rmse_m"]
+    drift, pairs = vo(r)
+    print(f"| {s} | {w} | {c} | {s1:.2f} / {s2:.2f} | {g:.1f} / {k:.1f} | {model} | {drift} | {pairs} | {p['recall']:.2f} / {p['precision']:.2f} "
           f"| {100*e['median']:.1f} / {100*e['p90']:.1f} | {p['render_ms']['median']:.0f} "
           f"| {fe['median']:.0f} / {fe['p99']:.0f} | {r['wall_s']/60:.0f} |")
 rs = [fig(json.load(open(f"{d}/r{s}.json"))) for s in seeds]
