@@ -326,14 +326,20 @@ mod tests {
         assert!((half.translation.vector.x - 0.02).abs() < 1e-15);
     }
 
-    #[test]
-    fn a_straight_drive_is_measured_from_the_rendered_pairs() {
+    /// Moon 4 and its renderer at half resolution.
+    fn half_resolution_scene() -> (Moon, Renderer) {
         let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
         let render = RenderConfig {
             resolution_scale: 0.5,
             ..RenderConfig::default()
         };
         let renderer = Renderer::new(&moon, &render, 4).unwrap();
+        (moon, renderer)
+    }
+
+    #[test]
+    fn a_straight_drive_is_measured_from_the_rendered_pairs() {
+        let (moon, renderer) = half_resolution_scene();
         let mut odometry =
             RenderedOdometry::new(&ImageOdometryConfig::default(), &renderer).unwrap();
         let (x, y) = moon.nearest_clear_position(5.0, 3.0, 1.0, 0.08);
@@ -368,12 +374,7 @@ mod tests {
 
     #[test]
     fn a_blind_pair_moves_by_the_wheels() {
-        let moon = Moon::generate(&MoonConfig::default(), 4).unwrap();
-        let render = RenderConfig {
-            resolution_scale: 0.5,
-            ..RenderConfig::default()
-        };
-        let renderer = Renderer::new(&moon, &render, 4).unwrap();
+        let (moon, renderer) = half_resolution_scene();
         let config = ImageOdometryConfig {
             wheel: WheelOdometryConfig {
                 scale_sigma: 0.0,
