@@ -47,7 +47,10 @@ cmd = f"segloc mission --seed S --sensors rendered {extra}".rstrip()
 print("## The mission on rendered images (`segloc mission --sensors rendered`)\n")
 print(f"`scripts/bench_mission_rendered.sh` ({cmd} --json; beside `--sensors model`) — "
       f"{datetime.date.today()}, AMD EPYC, 2 cores, commit `{sh('git rev-parse --short HEAD')}`; "
-      "the front end's geometric segmenter, its boulders replace the sensor model's everywhere.\n")
+      "the front end's geometric segmenter, its boulders replace the sensor model's everywhere; the odometry "
+      "is the stereo VO on the front pair at 10 Hz with the gyro and gravity, falling back on the wheels for "
+      "lost or disagreeing pairs (thresholds drawn from seed 2, the other seeds held out: "
+      "[design note](docs/design/vo-wheel-fallback.md)).\n")
 print("| seed | wrong acc. | coll. | S1 / S2 RMSE cm | LAC geo / rocks | model: wrong, coll., S2 cm, geo / rocks "
       "| VO drift S1 / S2 | VO lost / wheel pairs S1; S2 "
       "| recall / precision | centroid err. med / p90 cm | render ms | front end ms med / p99 | wall min |")
