@@ -145,6 +145,13 @@ mod tests {
         c.matching.match_size_fraction = 0.0;
         let e = c.validate().unwrap_err().to_string();
         assert!(e.contains("perception.matching.match_size_fraction"), "{e}");
+        let mut c = PerceptionConfig::default();
+        c.image_odometry.wheel.noise_fraction = -0.05;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("perception.image_odometry.wheel.noise_fraction"),
+            "{e}"
+        );
         let c: PerceptionConfig = toml::from_str("sensors = \"rendered\"").unwrap();
         assert_eq!(c.sensors, BoulderSensors::Rendered);
         assert!(toml::from_str::<PerceptionConfig>("sensors = \"pixels\"").is_err());
