@@ -479,9 +479,10 @@ fn vo_pairs_csv(pairs: &[crate::sim::rendered_odometry::PairRecord]) -> String {
 }
 
 impl MissionOutput {
-    /// Write `report.json`, `height_error.png`, `rock_map.png`, `trajectories.png` and the
-    /// sessions' trajectories (`sessionN_{truth,estimate,odometry}.tum`) into `dir` (created
-    /// if missing), each file atomically; with the cargo feature `rerun`,
+    /// Write `report.json`, `height_error.png`, `rock_map.png`, `trajectories.png`, the
+    /// sessions' trajectories (`sessionN_{truth,estimate,odometry}.tum`) and, for sessions
+    /// on images, their VO pairs (`sessionN_vo.csv`) into `dir` (created if missing), each
+    /// file atomically; with the cargo feature `rerun`,
     /// also `mission.rrd`, a recording of the run for the Rerun viewer.
     pub fn write(&self, dir: &Path) -> Result<(), OutputError> {
         std::fs::create_dir_all(dir).map_err(|e| OutputError::Directory {
@@ -537,6 +538,7 @@ impl MissionOutput {
             ],
         )?;
         self.write_trajectories(dir)?;
+        self.write_vo_pairs(dir)?;
         let json = serde_json::to_vec_pretty(r)?;
         segloc_maps::write_atomic(&dir.join("report.json"), &json)?;
         Ok(())
@@ -560,6 +562,12 @@ impl MissionOutput {
                 segloc_maps::write_atomic(&path, crate::vo::tum::tum_text(&poses).as_bytes())?;
             }
         }
+        Ok(())
+    }
+
+    /// Each session's image odometry pair by pair (`sessionN_vo.csv`, [`vo_pairs_csv`]);
+    /// nothing for a session on the drift model.
+    fn write_vo_pairs(&self, dir: &Path) -> Result<(), OutputError> {
         for (k, session) in self.report.sessions.iter().enumerate() {
             if let Some(odometry) = &session.image_odometry {
                 let path = dir.join(format!("session{}_vo.csv", k + 1));

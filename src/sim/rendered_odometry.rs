@@ -7,9 +7,10 @@
 //! ([`StereoOdometry`]), given the gyro and the IMU's gravity as `segloc vo --images` is
 //! (tilt anchored to gravity, heading from the bias-corrected gyro) → move it to the rover
 //! frame; where the VO lost the pair or its translation disagrees with the wheels', take
-//! the wheels' distance instead ([`crate::sim::wheel_odometry`]). The ticks between two pairs move by a tick's share of the last measured motion
-//! (constant velocity, what the planner drives on); the tick of the next pair takes what is
-//! left, so that the odometry over a pair's interval is exactly the VO's.
+//! the wheels' distance instead ([`crate::sim::wheel_odometry`]). The ticks between two
+//! pairs move by a tick's share of the last measured motion (constant velocity, what the
+//! planner drives on); the tick of the next pair takes what is left, so that the odometry
+//! over a pair's interval is exactly the pair's motion.
 
 use crate::graph::StereoCalibration;
 use crate::sim::gyro::{Gyro, GyroConfig};
@@ -93,7 +94,7 @@ pub struct PairRecord {
     pub wheel_translation: bool,
     /// The VO's time on the pair, ms.
     pub vo_ms: f64,
-    /// The odometry's pose of the rover after the pair.
+    /// The odometry's pose of the rover after the pair (the pairs' motions composed).
     pub odom_from_rover: Isometry3<f64>,
     /// The true pose of the rover.
     pub world_from_rover: Isometry3<f64>,
@@ -108,20 +109,11 @@ struct SessionOdometry {
     vo_at_pair: Isometry3<f64>,
     /// The true pose at the last pair (what the wheels turn over).
     world_from_rover_at_pair: Option<Isometry3<f64>>,
-    /// `odom_from_rover` after the last pair, the wheels' steps included.
-    odom_from_rover: Isometry3<f64>,
-    /// `odom_from_rover` measured at the last pair.
-    odom_from_rover_at_pair: Isometry3<f64>,
     /// The steps handed out since the last pair, composed.
     since_pair: Isometry3<f64>,
     /// A tick's share of the last pair's motion.
     per_tick: Isometry3<f64>,
-    tracked: Vec<f64>,
     render_ms: Vec<f64>,
-    vo_ms: Vec<f64>,
-    lost: usize,
-    gyro_rotation: usize,
-    wheel_translation: usize,
     pairs: Vec<PairRecord>,
 }
 
@@ -167,16 +159,9 @@ impl RenderedOdometry {
             wheels: WheelOdometry::new(&self.config.wheel, seed),
             vo_at_pair: Isometry3::identity(),
             world_from_rover_at_pair: None,
-            odom_from_rover: Isometry3::identity(),
-            odom_from_rover_at_pair: Isometry3::identity(),
             since_pair: Isometry3::identity(),
             per_tick: Isometry3::identity(),
-            tracked: Vec::new(),
             render_ms: Vec::new(),
-            vo_ms: Vec::new(),
-            lost: 0,
-            gyro_rotation: 0,
-            wheel_translation: 0,
             pairs: Vec::new(),
         });
         self.process_pair(renderer, time_s, world_from_rover, gravity_rover);
@@ -204,24 +189,22 @@ impl RenderedOdometry {
                 None => Isometry3::identity(),
             };
         }
-        let Some(odom_from_rover) =
-            self.process_pair(renderer, time_s, world_from_rover, gravity_rover)
+        let Some(motion) = self.process_pair(renderer, time_s, world_from_rover, gravity_rover)
         else {
             return Isometry3::identity();
         };
         let Some(s) = self.session.as_mut() else {
             return Isometry3::identity();
         };
-        let motion = s.odom_from_rover_at_pair.inverse() * odom_from_rover;
         let step = s.since_pair.inverse() * motion;
         s.per_tick = share(&motion, period);
         s.since_pair = Isometry3::identity();
-        s.odom_from_rover_at_pair = odom_from_rover;
         step
     }
 
     /// Render the pair at `world_from_rover`, run the VO on it with the gyro and
-    /// `gravity_rover`; the rover's new `odom_from_rover` (`None` without a session).
+    /// `gravity_rover`; the rover's motion since the last pair, `prev_from_cur` (`None`
+    /// without a session).
     fn process_pair(
         &mut self,
         renderer: &Renderer,
@@ -243,27 +226,11 @@ impl RenderedOdometry {
             Some(rate),
             gravity_rover,
         );
-        s.vo_ms.push(result.time_ms);
-        s.tracked.push(result.tracked as f64);
-        s.lost += usize::from(result.lost);
-        s.gyro_rotation += usize::from(result.gyro_rotation);
         let vo_pose = self.rover_from_left * result.pose * self.rover_from_left.inverse();
-        let vo_motion = s.vo_at_pair.inverse() * vo_pose;
-        s.vo_at_pair = vo_pose;
-        let mut motion = vo_motion;
-        let mut wheel_translation = false;
-        if let Some(before) = s.world_from_rover_at_pair {
-            let distance_m = s.wheels.distance_m(&(before.inverse() * world_from_rover));
-            let wheels = wheel_motion(&vo_motion, distance_m);
-            if take_wheels(&self.config.wheel, result.lost, &vo_motion, &wheels) {
-                motion = wheels;
-                wheel_translation = true;
-            }
-        }
-        s.world_from_rover_at_pair = Some(*world_from_rover);
-        s.wheel_translation += usize::from(wheel_translation);
-        s.odom_from_rover *= motion;
-        let odom_from_rover = s.odom_from_rover;
+        let (motion, wheel_translation) =
+            s.pair_motion(&self.config.wheel, &vo_pose, result.lost, world_from_rover);
+        let odom_at_pair = s.pairs.last().map(|p| p.odom_from_rover);
+        let odom_from_rover = odom_at_pair.unwrap_or_else(Isometry3::identity) * motion;
         s.pairs.push(PairRecord {
             time_s,
             tracked: result.tracked,
@@ -276,23 +243,56 @@ impl RenderedOdometry {
             odom_from_rover,
             world_from_rover: *world_from_rover,
         });
-        Some(odom_from_rover)
+        Some(motion)
     }
 
     /// The current session's figures (`None` before the first session).
     pub fn session_stats(&self) -> Option<ImageOdometryStats> {
         let s = self.session.as_ref()?;
+        let count = |flag: fn(&PairRecord) -> bool| s.pairs.iter().filter(|p| flag(p)).count();
+        let tracked: Vec<f64> = s.pairs.iter().map(|p| p.tracked as f64).collect();
+        let vo_ms: Vec<f64> = s.pairs.iter().map(|p| p.vo_ms).collect();
         Some(ImageOdometryStats {
             period_ticks: self.config.period_ticks,
-            pairs: s.vo_ms.len(),
-            lost: s.lost,
-            gyro_rotation: s.gyro_rotation,
-            wheel_translation: s.wheel_translation,
-            tracked_median: Quantiles::of(&s.tracked).median,
+            pairs: s.pairs.len(),
+            lost: count(|p| p.lost),
+            gyro_rotation: count(|p| p.gyro_rotation),
+            wheel_translation: count(|p| p.wheel_translation),
+            tracked_median: Quantiles::of(&tracked).median,
             render_ms: Quantiles::of(&s.render_ms),
-            vo_ms: Quantiles::of(&s.vo_ms),
+            vo_ms: Quantiles::of(&vo_ms),
             per_pair: s.pairs.clone(),
         })
+    }
+}
+
+impl SessionOdometry {
+    /// The motion of the pair whose VO pose (rover frame) is `vo_pose`, the rover truly at
+    /// `world_from_rover`: the VO's since the last pair, or its rotation with the wheels'
+    /// translation when the VO lost the pair or disagrees with them; and whether the wheels
+    /// were taken.
+    fn pair_motion(
+        &mut self,
+        config: &WheelOdometryConfig,
+        vo_pose: &Isometry3<f64>,
+        vo_lost: bool,
+        world_from_rover: &Isometry3<f64>,
+    ) -> (Isometry3<f64>, bool) {
+        let vo_motion = self.vo_at_pair.inverse() * vo_pose;
+        self.vo_at_pair = *vo_pose;
+        let before = self.world_from_rover_at_pair.replace(*world_from_rover);
+        let Some(before) = before else {
+            return (vo_motion, false);
+        };
+        let distance_m = self
+            .wheels
+            .distance_m(&(before.inverse() * world_from_rover));
+        let wheels = wheel_motion(&vo_motion, distance_m);
+        if take_wheels(config, vo_lost, &vo_motion, &wheels) {
+            (wheels, true)
+        } else {
+            (vo_motion, false)
+        }
     }
 }
 
