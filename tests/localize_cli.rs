@@ -92,7 +92,7 @@ fn an_exported_session_localizes_from_the_command_line() {
 #[test]
 fn a_mapping_session_then_a_session_against_its_map() {
     let dir = tempfile::tempdir().unwrap();
-    let (frames_1, _, _) = export(dir.path(), "1", "60");
+    let (frames_1, _, _) = export(dir.path(), "1", "20");
     let map = dir.path().join("session1.map.json");
     let tum = dir.path().join("s1.tum");
     let out = segloc()
@@ -105,9 +105,9 @@ fn a_mapping_session_then_a_session_against_its_map() {
         .output()
         .unwrap();
     assert_success(&out);
-    assert_eq!(read_tum(&tum).len(), 61);
+    assert_eq!(read_tum(&tum).len(), 21);
     assert!(map.exists());
-    // 60 s of session 1, mapped here, cover too little of the site for session 2 to find
+    // 20 s of session 1, mapped here, cover too little of the site for session 2 to find
     // itself in 60 s: exit 1, the reasons counted, nothing written
     let (frames_2, _, _) = export(dir.path(), "2", "60");
     let tum_2 = dir.path().join("s2.tum");

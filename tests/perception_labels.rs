@@ -187,8 +187,9 @@ fn shipped_model_mask_counts_on_two_rendered_frames() {
     common::assert_success(&out);
     let config = FrontEndConfig::default();
     let mut seg = LearnedSegmenter::load(&shipped_model().unwrap(), config.learned).unwrap();
-    // stored 2026-11-27 (held-out seed 901, default sun): 25 and 21 masks
-    for (frame, stored) in [("000000", 25usize), ("000040", 21)] {
+    // stored 2026-11-29 (held-out seed 901, default sun, the moon's angular rocks): 38 and
+    // 21 masks (25 and 21 when the rocks were spheres)
+    for (frame, stored) in [("000000", 38usize), ("000040", 21)] {
         let left = read_gray_png(&dir.join(format!("{frame}_0.png"))).unwrap();
         let n = seg.segment_image(&left).unwrap().len();
         let tolerance = 4.max(stored * 2 / 5);

@@ -73,10 +73,7 @@ fn flat_moon(craters: Vec<Crater>, rocks: &[(f64, f64, f64)]) -> Moon {
     let mut moon = Moon::from_parts(&config, 1, craters).unwrap();
     let rocks = rocks
         .iter()
-        .map(|&(x, y, r)| Rock {
-            center: Point3::new(x, y, moon.height_at(x, y) + 0.2 * r),
-            radius_m: r,
-        })
+        .map(|&(x, y, r)| Rock::sphere(Point3::new(x, y, moon.height_at(x, y) + 0.2 * r), r))
         .collect();
     moon.set_rocks(rocks);
     moon

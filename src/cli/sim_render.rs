@@ -244,7 +244,11 @@ fn write_frames(
         .rocks()
         .iter()
         .enumerate()
-        .map(|(id, r)| json!({"id": id, "center_world": [r.center.x, r.center.y, r.center.z], "radius_m": r.radius_m}))
+        .map(|(id, r)| {
+            json!({"id": id, "center_world": [r.center.x, r.center.y, r.center.z],
+                "radius_m": moon.rock_size_radius_m(id), "bounding_radius_m": r.radius_m,
+                "shape": r.shape})
+        })
         .collect();
     let rocks_json = json!({"rocks": rocks, "frames": frames_json});
     write_text(

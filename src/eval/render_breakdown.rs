@@ -98,8 +98,8 @@ pub fn diagnose_frame(
             .map_or(&[], Vec::as_slice);
         let n = mine.len().max(1) as f64;
         let truth = &moon.rocks()[rock.id];
-        let protrusion_m =
-            truth.center.z + truth.radius_m - moon.height_at(truth.center.x, truth.center.y);
+        let protrusion_m = truth.center.z + truth.shape.top_m(truth.radius_m)
+            - moon.height_at(truth.center.x, truth.center.y);
         let threshold = geometric.threshold_at(geometric.seed_height_m, rock.range_m);
         let mut errors = Vec::new();
         let (mut valid, mut seeds, mut peak) = (0usize, 0usize, f64::NAN);

@@ -65,9 +65,10 @@ impl MissionTrace {
         let rocks = moon
             .rocks()
             .iter()
-            .map(|r| TraceRock {
+            .enumerate()
+            .map(|(i, r)| TraceRock {
                 p_world: r.center,
-                radius_m: r.radius_m,
+                radius_m: moon.rock_size_radius_m(i),
             })
             .collect();
         let prior_landmarks = prior

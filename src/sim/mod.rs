@@ -24,6 +24,7 @@ pub mod render;
 pub mod rendered_boulders;
 pub mod rendered_odometry;
 pub mod rendered_sensors;
+pub mod rock_shape;
 pub mod rover;
 pub mod sensors;
 pub mod session;

@@ -2,10 +2,12 @@
 //! lander at the origin, and its ground truth on the LAC grid.
 //!
 //! Terrain is a height field sampled every `resolution_m` (bilinear between samples); rocks
-//! are spheres whose centres sit a little above the ground (so a ray from above hits a rock
-//! exactly when it passes within the rock's radius of its centre, horizontally); the lander
-//! is a box on the ground at the origin. The same scene answers ray casts (see
-//! [`crate::sim::world_rays`]) through a parry3d `HeightField` built from the same samples.
+//! are angular bodies ([`RockShape`]: flattened, elongated ellipsoids chipped by flat cuts,
+//! or plain spheres with `angular_rocks = false`) whose centres sit a little above the
+//! ground, their undersides buried; the lander is a box on the ground at the origin. The
+//! same scene answers ray casts (see [`crate::sim::world_rays`]: a parry3d `HeightField`
+//! built from the same samples, and each rock's exact shape), the renderer draws the same
+//! shapes, and the ground truth's rock cells are their footprints.
 //!
 //! Ground truth follows the LAC definition (shared data `README.md`): on the 180 × 180 grid
 //! of 0.15 m cells centred on the lander, a cell's height is the mean terrain height over a
@@ -14,6 +16,7 @@
 
 use crate::sim::crater::Crater;
 use crate::sim::ipex::{LANDER_HALF_EXTENT_M, LANDER_HEIGHT_M};
+use crate::sim::rock_shape::{Footprint, RockShape, ShapeRanges};
 use crate::sim::value_noise::FractalNoise;
 use crate::spatial::GridIndex;
 use nalgebra::{Point3, Vector3};
@@ -67,6 +70,9 @@ pub struct MoonConfig {
     pub rock_size_exponent: f64,
     /// No rock within this distance of the lander's footprint, metres.
     pub rock_clear_of_lander_m: f64,
+    /// Rocks are angular (ellipsoids chipped by flat cuts, [`RockShape::draw`]); `false`
+    /// keeps the plain spheres of earlier versions (for comparisons).
+    pub angular_rocks: bool,
 }
 
 impl Default for MoonConfig {
@@ -86,6 +92,7 @@ impl Default for MoonConfig {
             rock_radius_max_m: 0.5,
             rock_size_exponent: 3.0,
             rock_clear_of_lander_m: 0.5,
+            angular_rocks: true,
         }
     }
 }
@@ -130,13 +137,40 @@ impl MoonConfig {
     }
 }
 
-/// One rock: a sphere.
+/// One rock: a body of [`RockShape`] inside the sphere of `radius_m` around `center`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Rock {
-    /// Sphere centre, world frame, metres.
+    /// Centre, world frame, metres.
     pub center: Point3<f64>,
-    /// Sphere radius, metres.
+    /// Radius of the sphere that holds the rock (its shape only cuts into it), metres.
     pub radius_m: f64,
+    /// Its shape (a sphere when absent from a file).
+    #[serde(default)]
+    pub shape: RockShape,
+}
+
+impl Rock {
+    /// A spherical rock.
+    pub fn sphere(center: Point3<f64>, radius_m: f64) -> Self {
+        Self {
+            center,
+            radius_m,
+            shape: RockShape::sphere(),
+        }
+    }
+
+    /// Distance along the unit direction `dir` from `origin` to the rock, if hit within
+    /// `max_m` (0 from inside).
+    pub fn cast_ray(&self, origin: &Point3<f64>, dir: &Vector3<f64>, max_m: f64) -> Option<f64> {
+        self.shape
+            .cast_ray(&self.center, self.radius_m, origin, dir, max_m)
+    }
+
+    /// Whether the rock covers (x, y) seen from above.
+    pub fn covers_xy(&self, x: f64, y: f64) -> bool {
+        (self.center.x - x).hypot(self.center.y - y) < self.radius_m
+            && self.shape.covers_xy(&self.center, self.radius_m, x, y)
+    }
 }
 
 /// The synthetic moon: terrain, craters, rocks and lander.
@@ -150,6 +184,8 @@ pub struct Moon {
     heights: Vec<f64>,
     craters: Vec<Crater>,
     rocks: Vec<Rock>,
+    /// Per rock: its footprint and the footprint's mean radius.
+    rock_extents: Vec<(Footprint, f64)>,
     rock_index: GridIndex,
     max_rock_radius_m: f64,
     /// The same terrain for ray casts; local frame (x, height, y).
@@ -237,6 +273,7 @@ impl Moon {
             heights,
             craters,
             rocks: Vec::new(),
+            rock_extents: Vec::new(),
             rock_index: GridIndex::new(ROCK_GRID_M),
             max_rock_radius_m: 0.0,
             heightfield,
@@ -246,6 +283,13 @@ impl Moon {
     /// Replace the rocks.
     pub fn set_rocks(&mut self, rocks: Vec<Rock>) {
         self.max_rock_radius_m = rocks.iter().map(|r| r.radius_m).fold(0.0, f64::max);
+        self.rock_extents = rocks
+            .iter()
+            .map(|r| {
+                let footprint = r.shape.footprint(r.radius_m);
+                (footprint, footprint.mean_radius_m())
+            })
+            .collect();
         self.rock_index = GridIndex::new(ROCK_GRID_M);
         for (i, r) in rocks.iter().enumerate() {
             self.rock_index.insert(i as u32, &r.center);
@@ -275,13 +319,44 @@ impl Moon {
             if self.distance_to_lander_m(x, y) < radius_m + c.rock_clear_of_lander_m {
                 continue;
             }
-            let ground = self.height_at(x, y);
-            rocks.push(Rock {
-                center: Point3::new(x, y, ground + embed * radius_m),
-                radius_m,
-            });
+            rocks.push((x, y, radius_m, embed));
         }
+        // the shapes from their own stream, so that the layout is that of the spheres
+        let mut shape_rng = ChaCha8Rng::seed_from_u64(rng.random());
+        let rocks = rocks
+            .into_iter()
+            .map(|(x, y, radius_m, embed)| {
+                let shape = if c.angular_rocks {
+                    RockShape::draw(&mut shape_rng, &ShapeRanges::default())
+                } else {
+                    RockShape::sphere()
+                };
+                // the centre sits `embed` of the rock's half-height above the ground
+                let ground = self.height_at(x, y);
+                let center = Point3::new(x, y, ground + embed * shape.axes[2] * radius_m);
+                Rock {
+                    center,
+                    radius_m,
+                    shape,
+                }
+            })
+            .collect();
         self.set_rocks(rocks);
+    }
+
+    /// Size of rock `i` as a radius: the mean radius of its footprint, half the width a
+    /// camera sees of it, metres; 0 for an index out of range.
+    pub fn rock_size_radius_m(&self, i: usize) -> f64 {
+        self.rock_extents.get(i).map_or(0.0, |e| e.1)
+    }
+
+    /// Horizontal distance from (x, y) to rock `i`'s footprint, metres (0 on it; infinite
+    /// for an index out of range).
+    pub fn distance_to_rock_m(&self, i: usize, x: f64, y: f64) -> f64 {
+        match (self.rocks.get(i), self.rock_extents.get(i)) {
+            (Some(r), Some((footprint, _))) => footprint.distance_m(x - r.center.x, y - r.center.y),
+            _ => f64::INFINITY,
+        }
     }
 
     /// The configuration it was generated from.
@@ -363,11 +438,11 @@ impl Moon {
         Vector3::new(-dzdx, -dzdy, 1.0).normalize()
     }
 
-    /// Whether (x, y) lies on a rock seen from above (within a rock's radius of its centre).
+    /// Whether (x, y) lies on a rock seen from above (inside a rock's footprint).
     pub fn on_rock(&self, x: f64, y: f64) -> bool {
         let mut hit = false;
         self.for_each_rock_near(x, y, self.max_rock_radius_m, |_, r| {
-            hit |= (r.center.x - x).hypot(r.center.y - y) < r.radius_m;
+            hit |= r.covers_xy(x, y);
         });
         hit
     }
@@ -380,14 +455,15 @@ impl Moon {
     }
 
     /// Whether (x, y) is at least `clearance_m` from the lander and from the edge of every
-    /// rock of radius ≥ `min_rock_radius_m`.
+    /// rock of size ≥ `min_rock_radius_m` ([`Moon::rock_size_radius_m`]; its holding sphere is the
+    /// edge, conservatively).
     pub fn is_clear(&self, x: f64, y: f64, clearance_m: f64, min_rock_radius_m: f64) -> bool {
         if self.distance_to_lander_m(x, y) < clearance_m {
             return false;
         }
         let mut clear = true;
-        self.for_each_rock_near(x, y, clearance_m + self.max_rock_radius_m, |_, r| {
-            if r.radius_m >= min_rock_radius_m
+        self.for_each_rock_near(x, y, clearance_m + self.max_rock_radius_m, |i, r| {
+            if self.rock_size_radius_m(i) >= min_rock_radius_m
                 && (r.center.x - x).hypot(r.center.y - y) < clearance_m + r.radius_m
             {
                 clear = false;

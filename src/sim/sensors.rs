@@ -327,14 +327,17 @@ impl<'a> ViewContext<'a> {
             if depth < c.min_range_m || depth > c.max_range_m {
                 continue;
             }
-            if FOCAL_PX * rock.radius_m / depth < c.min_radius_px {
+            let size_radius_m = self.moon.rock_size_radius_m(i);
+            if FOCAL_PX * size_radius_m / depth < c.min_radius_px {
                 continue;
             }
             if !project(&p.coords).is_some_and(|(u, v)| in_image(u, v, 0.0)) {
                 continue;
             }
-            // line of sight to the upper half of the face turned to the camera
-            let target = rock.center + Vector3::new(0.0, 0.0, 0.5 * rock.radius_m);
+            // line of sight to the upper half of the face turned to the camera (half the
+            // rock's height above its centre is inside every shape)
+            let target =
+                rock.center + Vector3::new(0.0, 0.0, 0.5 * rock.shape.axes[2] * rock.radius_m);
             let to = target - self.origin;
             let dist = to.norm();
             let dir = to / dist;
@@ -349,10 +352,10 @@ impl<'a> ViewContext<'a> {
                 continue;
             }
             let toward_camera = (self.origin - rock.center).normalize();
-            let face = rock.center + toward_camera * (c.face_bias_fraction * rock.radius_m);
+            let face = rock.center + toward_camera * (c.face_bias_fraction * size_radius_m);
             let p_cam = self.camera_from_world * face;
             let measured = c.stereo.perturb(&p_cam.coords, rng);
-            let radius_m = rock.radius_m * (1.0 + c.radius_error_sigma * gaussian(rng)).max(0.2);
+            let radius_m = size_radius_m * (1.0 + c.radius_error_sigma * gaussian(rng)).max(0.2);
             out.push(BoulderObservation {
                 camera: self.camera.id,
                 p_rover: self.to_rover(&measured),

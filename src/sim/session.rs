@@ -295,10 +295,10 @@ impl<'a> SessionSim<'a> {
         }
         let mut hit = None;
         self.moon
-            .for_each_rock_near(x, y, r + self.moon.max_rock_radius_m(), |i, rock| {
-                if rock.radius_m >= self.config.collision_min_rock_radius_m
-                    && (rock.center.x - x).hypot(rock.center.y - y) < r + rock.radius_m
+            .for_each_rock_near(x, y, r + self.moon.max_rock_radius_m(), |i, _| {
+                if self.moon.rock_size_radius_m(i) >= self.config.collision_min_rock_radius_m
                     && hit.is_none()
+                    && self.moon.distance_to_rock_m(i, x, y) < r
                 {
                     hit = Some(Obstruction::Rock(i));
                 }

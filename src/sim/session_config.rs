@@ -35,7 +35,9 @@ pub struct SessionConfig {
     /// A collision is logged when a rock's edge or the lander comes within this distance of
     /// the rover's centre, metres (default: the footprint's circumscribed radius, ≈ 0.47 m).
     pub collision_radius_m: f64,
-    /// Only rocks at least this large count as collisions, metres.
+    /// Only rocks at least this large count as collisions: the rock's size as a radius
+    /// (the mean radius of its footprint, [`crate::sim::moon::Moon::rock_size_radius_m`]),
+    /// metres; contact is with the footprint itself.
     pub collision_min_rock_radius_m: f64,
     /// Drive limits.
     pub rover: RoverConfig,

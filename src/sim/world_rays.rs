@@ -6,7 +6,7 @@ use crate::sim::moon::Moon;
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::math::{Pose, Vector};
 use parry3d_f64::query::{Ray, RayCast};
-use parry3d_f64::shape::{Ball, Cuboid};
+use parry3d_f64::shape::Cuboid;
 
 /// What a ray hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,9 +71,7 @@ impl Moon {
         dir: &Vector3<f64>,
         max_m: f64,
     ) -> Option<f64> {
-        let rock = self.rocks().get(index)?;
-        let pose = Pose::from_translation(v(&rock.center.coords));
-        Ball::new(rock.radius_m).cast_ray(&pose, &Ray::new(v(&origin.coords), v(dir)), max_m, true)
+        self.rocks().get(index)?.cast_ray(origin, dir, max_m)
     }
 
     /// The first hit along the unit direction `dir` from `origin` within `max_m`, testing the
@@ -174,7 +172,11 @@ mod tests {
         let o = rock.center + Vector3::new(0.0, 0.0, 3.0);
         let hit = m.cast_ray(&o, &-Vector3::z(), 10.0, None).unwrap();
         assert_eq!(hit.target, RayTarget::Rock(i));
-        assert!((hit.distance_m - (3.0 - rock.radius_m)).abs() < 1e-9);
+        let top = rock.center + Vector3::new(0.0, 0.0, 3.0 - hit.distance_m);
+        // the hit is on the rock's surface: a little further down is inside it
+        let below = rock.cast_ray(&(top - Vector3::z() * 1e-6), &Vector3::z(), 1.0);
+        assert_eq!(below, Some(0.0));
+        assert!(hit.distance_m >= 3.0 - rock.radius_m - 1e-9);
         let o = Point3::new(-6.0, 0.0, m.lander_base_m() + 1.0);
         let hit = m.cast_ray(&o, &Vector3::x(), 10.0, None).unwrap();
         assert_eq!(hit.target, RayTarget::Lander);

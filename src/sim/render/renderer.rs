@@ -5,7 +5,7 @@
 //!    triangle per pixel;
 //! 2. shade: the pixel's surface point from its depth; on the terrain the sun's side
 //!    (`μ0 · lit`) baked once per renderer ([`super::terrain_light`]) and the viewing angle
-//!    from the triangle's normal; on rocks the sphere's normal and the sun's shadow map
+//!    from the triangle's normal; on rocks the normal of the rock's exact shape and the sun's shadow map
 //!    ([`super::shadow`]); then the lunar-Lambert reflectance and the albedo textures;
 //! 3. expose ([`super::sensor`]): fixed exposure, shot and read noise, gamma, 8 bits, each
 //!    pixel as it is shaded (no radiance image).
@@ -245,13 +245,10 @@ impl Renderer {
                 return self.scene.terrain_albedo(p.x, p.y) * (direct + self.config.ambient);
             }
             ObjectKind::Rock(_) | ObjectKind::Pebble => {
-                let d = Vector3::new(
-                    p.x - o.center[0],
-                    p.y - o.center[1],
-                    (p.z - o.center[2]) / (o.flatten * o.flatten),
-                );
+                let center = Point3::from(o.center);
+                let normal = o.shape.normal_at(&center, o.radius_m, p);
                 let grain = self.scene.fine_detail(p.x + 0.37 * p.z, p.y - 0.61 * p.z);
-                (d.normalize(), o.albedo * grain)
+                (normal, o.albedo * grain)
             }
             ObjectKind::Lander => (self.triangle_normal(triangle), o.albedo),
         };

@@ -3,13 +3,16 @@
 //!
 //! The terrain mesh is the moon's height field split exactly as the ray casts of
 //! [`crate::sim::world_rays`] split it, so a drawn pixel's depth is the ray-cast depth. Rocks
-//! are the moon's spheres as geodesic polyhedra (more facets for larger rocks); pebbles are
-//! small flattened polyhedra that are drawn but are not rocks of the ground truth.
+//! are the moon's [`RockShape`]s as geodesic polyhedra (a geodesic sphere's vertices pushed
+//! onto the rock's surface, more facets for larger rocks); pebbles are small flattened
+//! polyhedra that are drawn but are not rocks of the ground truth.
 
 use super::config::RenderConfig;
 use super::hash_noise::{hash64, value_noise};
 use crate::sim::ipex::LANDER_HALF_EXTENT_M;
 use crate::sim::moon::Moon;
+use crate::sim::rock_shape::RockShape;
+use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 /// What a scene object is.
@@ -32,10 +35,13 @@ pub struct SceneObject {
     pub kind: ObjectKind,
     /// Centre of a rock or pebble, world frame.
     pub center: [f64; 3],
-    /// Radius of a rock or pebble (horizontal), metres.
+    /// Radius of the sphere holding a rock or pebble, metres.
     pub radius_m: f64,
-    /// Vertical scale of a pebble (1 for rocks: spheres).
-    pub flatten: f64,
+    /// Shape of a rock or pebble (the moon's rock shapes; pebbles are flattened
+    /// ellipsoids).
+    pub shape: RockShape,
+    /// Size of a rock as a radius (the mean radius of its footprint), metres.
+    pub size_radius_m: f64,
     /// Albedo relative to the regolith's.
     pub albedo: f64,
 }
@@ -54,6 +60,14 @@ const _: () = assert!(FINE_TEXELS.is_power_of_two());
 const FINE_TEXEL_M: f64 = 0.002;
 /// Texel of the site-wide albedo texture, metres.
 const COARSE_TEXEL_M: f64 = 0.02;
+
+/// A rock or pebble to mesh: its shape around a centre, within a radius.
+struct Body {
+    center: Point3<f64>,
+    radius_m: f64,
+    size_radius_m: f64,
+    shape: RockShape,
+}
 
 /// A run of consecutive triangles inside a bounding sphere, culled as a whole.
 #[derive(Clone, Debug, PartialEq)]
@@ -124,8 +138,13 @@ impl Scene {
                 _ => 3,
             };
             let albedo = config.rock_albedo * (0.7 + 0.6 * next());
-            let c = [rock.center.x, rock.center.y, rock.center.z];
-            scene.add_ellipsoid(ObjectKind::Rock(i), c, rock.radius_m, 1.0, albedo, level);
+            let body = Body {
+                center: rock.center,
+                radius_m: rock.radius_m,
+                size_radius_m: moon.rock_size_radius_m(i),
+                shape: rock.shape,
+            };
+            scene.add_body(ObjectKind::Rock(i), &body, albedo, level);
         }
         let count = (config.pebbles_per_m2 * (2.0 * half_m).powi(2)).round() as usize;
         let r_max = config.pebble_radius_max_m;
@@ -139,7 +158,13 @@ impl Scene {
             let flatten = 0.5 + 0.3 * next();
             let z = moon.height_at(x, y) + r * flatten * (0.1 + 0.3 * next());
             let albedo = config.rock_albedo * (0.6 + 0.8 * next());
-            scene.add_ellipsoid(ObjectKind::Pebble, [x, y, z], r, flatten, albedo, 0);
+            let body = Body {
+                center: Point3::new(x, y, z),
+                radius_m: r,
+                size_radius_m: r,
+                shape: RockShape::flattened(flatten),
+            };
+            scene.add_body(ObjectKind::Pebble, &body, albedo, 0);
         }
         scene.make_textures(config, seed);
         scene
@@ -155,7 +180,8 @@ impl Scene {
             kind: ObjectKind::Terrain,
             center: [0.0; 3],
             radius_m: 0.0,
-            flatten: 1.0,
+            shape: RockShape::sphere(),
+            size_radius_m: 0.0,
             albedo: 1.0,
         });
         let half = (n - 1) as f64 * spacing / 2.0;
@@ -211,7 +237,8 @@ impl Scene {
             kind: ObjectKind::Lander,
             center: [0.0; 3],
             radius_m: 0.0,
-            flatten: 1.0,
+            shape: RockShape::sphere(),
+            size_radius_m: 0.0,
             albedo: 1.6,
         });
         let h = LANDER_HALF_EXTENT_M;
@@ -241,39 +268,33 @@ impl Scene {
         self.push_cluster(first, [-h, -h, z0], [h, h, z1]);
     }
 
-    fn add_ellipsoid(
-        &mut self,
-        kind: ObjectKind,
-        center: [f64; 3],
-        radius_m: f64,
-        flatten: f64,
-        albedo: f64,
-        level: usize,
-    ) {
+    fn add_body(&mut self, kind: ObjectKind, body: &Body, albedo: f64, level: usize) {
+        let c = body.center;
         let id = self.add_object(SceneObject {
             kind,
-            center,
-            radius_m,
-            flatten,
+            center: [c.x, c.y, c.z],
+            radius_m: body.radius_m,
+            shape: body.shape,
+            size_radius_m: body.size_radius_m,
             albedo,
         });
         let (unit_vertices, unit_triangles) = super::icosphere::icosphere(level);
         let base = self.vertices.len() as u32;
         let first = self.triangles.len() as u32;
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for v in unit_vertices {
-            self.vertices.push([
-                center[0] + radius_m * v[0],
-                center[1] + radius_m * v[1],
-                center[2] + radius_m * flatten * v[2],
-            ]);
+            let u = Vector3::new(v[0], v[1], v[2]);
+            let p = body.shape.surface_point(&c, body.radius_m, &u);
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+            self.vertices.push([p.x, p.y, p.z]);
         }
         for t in unit_triangles {
             self.triangles.push([base + t[0], base + t[1], base + t[2]]);
             self.triangle_object.push(id);
         }
-        let r = [radius_m, radius_m, radius_m * flatten];
-        let lo = [0, 1, 2].map(|a| center[a] - r[a]);
-        let hi = [0, 1, 2].map(|a| center[a] + r[a]);
         self.push_cluster(first, lo, hi);
     }
 

@@ -16,7 +16,8 @@ pub struct VisibleRock {
     pub id: usize,
     /// Rock centre, world frame, metres.
     pub center_world: [f64; 3],
-    /// Rock radius, metres (size: the diameter, twice this).
+    /// Rock radius, metres: the mean radius of its footprint (size: the diameter, twice
+    /// this).
     pub radius_m: f64,
     /// Pixels of the rock in the left image.
     pub pixels: usize,
@@ -142,7 +143,7 @@ impl Renderer {
                 Some(VisibleRock {
                     id,
                     center_world: obj.center,
-                    radius_m: obj.radius_m,
+                    radius_m: obj.size_radius_m,
                     pixels,
                     visible_fraction: pixels as f64 / whole as f64,
                     visible_center_world: [c.x, c.y, c.z],
