@@ -622,6 +622,35 @@ mod tests {
     }
 
     #[test]
+    fn an_odometry_frame_tilted_by_the_start_slope_is_levelled_by_gravity() {
+        // a VO's frame is its first rover frame: on a 3° slope it is tilted 3° against the
+        // level world the IMU's gravity measures
+        let field = field();
+        let (mut frames, truth) = drive(&field, 1.0, 0.0);
+        frames.truncate(60);
+        let tilted_from_odom = Isometry3::rotation(Vector3::x() * 3f64.to_radians());
+        for f in &mut frames {
+            f.odom_from_rover = tilted_from_odom * f.odom_from_rover;
+        }
+        let mut localizer = Localizer::new(None, no_view_bias()).unwrap();
+        for f in &frames {
+            localizer.push_frame(f).unwrap();
+        }
+        let session = localizer.finish().unwrap();
+        let worst_m = session
+            .poses
+            .iter()
+            .zip(&truth)
+            .map(|(p, t)| {
+                let estimated = session.poses[0].inverse() * p;
+                let true_motion = truth[0].inverse() * t;
+                (estimated.translation.vector - true_motion.translation.vector).norm()
+            })
+            .fold(0.0, f64::max);
+        assert!(worst_m < 0.01, "worst {worst_m} m");
+    }
+
+    #[test]
     fn a_mapping_session_is_anchored_at_its_first_frame() {
         let field = field();
         let (frames, _) = drive(&field, 1.0, 0.0);

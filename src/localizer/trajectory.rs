@@ -221,7 +221,10 @@ impl TrajectoryGraph {
     }
 
     /// Add the frames of `log` not yet in the graph, with odometry factors (and gravity
-    /// factors on their attitude); the first is fixed at its odometry pose.
+    /// factors on their attitude); the first is fixed at its attitude: its odometry position
+    /// and heading, with the IMU's roll and pitch when it has them (an odometry whose frame
+    /// is the first rover frame, as a VO's is, starts tilted by the ground's slope; fixed
+    /// there, the gravity factors of the later frames would bend the chain towards level).
     pub fn extend(&mut self, log: &FrameLog, config: &LocalizerConfig) -> Result<(), GraphError> {
         while self.frames < log.len() {
             let k = self.frames;
@@ -229,7 +232,7 @@ impl TrajectoryGraph {
             // appended variables and factors leave the incremental state valid
             let graph = self.inc.graph_mut();
             if k == 0 {
-                graph.add_pose(0, f.odom_from_rover)?;
+                graph.add_pose(0, f.attitude)?;
                 graph.fix(0)?;
             } else {
                 let step = f.step;
