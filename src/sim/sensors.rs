@@ -19,7 +19,7 @@ use crate::sim::ipex::{
     BACK_LEFT_CAMERA_M, CX_PX, CY_PX, FOCAL_PX, FRONT_LEFT_CAMERA_M, IMAGE_HEIGHT_PX,
     IMAGE_WIDTH_PX, LANDER_HALF_EXTENT_M,
 };
-use crate::sim::moon::Moon;
+use crate::sim::moon::{Moon, Rock};
 use crate::sim::stereo_noise::StereoNoiseConfig;
 use crate::sim::world_rays::RayTarget;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -313,6 +313,21 @@ impl<'a> ViewContext<'a> {
         self.camera.rover_from_camera * Point3::from(*p_cam)
     }
 
+    /// Whether a line of sight reaches rock `i`: to the middle of its height above its
+    /// centre, or else to just under its top (a low rock behind a rise shows its top only).
+    fn sees_rock(&self, i: usize, rock: &Rock, candidates: &[usize]) -> bool {
+        let up = rock.shape.unit_surface(&Vector3::z()).z * rock.shape.axes[2] * rock.radius_m;
+        [0.5, 0.9].iter().any(|fraction| {
+            let target = rock.center + Vector3::new(0.0, 0.0, fraction * up);
+            let to = target - self.origin;
+            let dist = to.norm();
+            let dir = to / dist;
+            self.moon
+                .cast_ray(&self.origin, &dir, dist + rock.radius_m, Some(candidates))
+                .is_some_and(|h| h.target == RayTarget::Rock(i))
+        })
+    }
+
     fn detect_rocks(
         &self,
         candidates: &[usize],
@@ -334,17 +349,7 @@ impl<'a> ViewContext<'a> {
             if !project(&p.coords).is_some_and(|(u, v)| in_image(u, v, 0.0)) {
                 continue;
             }
-            // line of sight to the upper half of the face turned to the camera (half the
-            // rock's height above its centre is inside every shape)
-            let target =
-                rock.center + Vector3::new(0.0, 0.0, 0.5 * rock.shape.axes[2] * rock.radius_m);
-            let to = target - self.origin;
-            let dist = to.norm();
-            let dir = to / dist;
-            let hit =
-                self.moon
-                    .cast_ray(&self.origin, &dir, dist + rock.radius_m, Some(candidates));
-            if hit.is_none_or(|h| h.target != RayTarget::Rock(i)) {
+            if !self.sees_rock(i, &rock, candidates) {
                 continue;
             }
             let miss = (c.miss_probability + c.miss_probability_per_m * depth).clamp(0.0, 1.0);
