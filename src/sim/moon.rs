@@ -184,8 +184,8 @@ pub struct Moon {
     heights: Vec<f64>,
     craters: Vec<Crater>,
     rocks: Vec<Rock>,
-    /// Per rock: its footprint and the footprint's mean radius.
-    rock_extents: Vec<(Footprint, f64)>,
+    /// Per rock: its footprint seen from above.
+    rock_footprints: Vec<Footprint>,
     rock_index: GridIndex,
     max_rock_radius_m: f64,
     /// The same terrain for ray casts; local frame (x, height, y).
@@ -273,7 +273,7 @@ impl Moon {
             heights,
             craters,
             rocks: Vec::new(),
-            rock_extents: Vec::new(),
+            rock_footprints: Vec::new(),
             rock_index: GridIndex::new(ROCK_GRID_M),
             max_rock_radius_m: 0.0,
             heightfield,
@@ -283,12 +283,9 @@ impl Moon {
     /// Replace the rocks.
     pub fn set_rocks(&mut self, rocks: Vec<Rock>) {
         self.max_rock_radius_m = rocks.iter().map(|r| r.radius_m).fold(0.0, f64::max);
-        self.rock_extents = rocks
+        self.rock_footprints = rocks
             .iter()
-            .map(|r| {
-                let footprint = r.shape.footprint(r.radius_m);
-                (footprint, footprint.mean_radius_m())
-            })
+            .map(|r| r.shape.footprint(r.radius_m))
             .collect();
         self.rock_index = GridIndex::new(ROCK_GRID_M);
         for (i, r) in rocks.iter().enumerate() {
@@ -347,14 +344,16 @@ impl Moon {
     /// Size of rock `i` as a radius: the mean radius of its footprint, half the width a
     /// camera sees of it, metres; 0 for an index out of range.
     pub fn rock_size_radius_m(&self, i: usize) -> f64 {
-        self.rock_extents.get(i).map_or(0.0, |e| e.1)
+        self.rock_footprints
+            .get(i)
+            .map_or(0.0, Footprint::mean_radius_m)
     }
 
     /// Horizontal distance from (x, y) to rock `i`'s footprint, metres (0 on it; infinite
     /// for an index out of range).
     pub fn distance_to_rock_m(&self, i: usize, x: f64, y: f64) -> f64 {
-        match (self.rocks.get(i), self.rock_extents.get(i)) {
-            (Some(r), Some((footprint, _))) => footprint.distance_m(x - r.center.x, y - r.center.y),
+        match (self.rocks.get(i), self.rock_footprints.get(i)) {
+            (Some(r), Some(footprint)) => footprint.distance_m(x - r.center.x, y - r.center.y),
             _ => f64::INFINITY,
         }
     }

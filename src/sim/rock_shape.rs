@@ -26,6 +26,16 @@ pub struct Footprint {
     pub radii: [f64; FOOTPRINT_AZIMUTHS],
 }
 
+/// `(sin, cos)` of the azimuth of a footprint's radius `i`: `2π·i/N` from +x.
+fn azimuth(i: usize) -> (f64, f64) {
+    (std::f64::consts::TAU * i as f64 / FOOTPRINT_AZIMUTHS as f64).sin_cos()
+}
+
+/// The unit normal of a cut `[nx, ny, nz, h]`.
+fn cut_normal(cut: &[f64; 4]) -> Vector3<f64> {
+    Vector3::new(cut[0], cut[1], cut[2])
+}
+
 impl Footprint {
     /// Mean of the radii, metres: half the rock's width seen from the side, on average.
     pub fn mean_radius_m(&self) -> f64 {
@@ -36,7 +46,7 @@ impl Footprint {
     /// footprint polygon, metres; 0 inside.
     pub fn distance_m(&self, dx: f64, dy: f64) -> f64 {
         let vertex = |i: usize| {
-            let (s, c) = (std::f64::consts::TAU * i as f64 / FOOTPRINT_AZIMUTHS as f64).sin_cos();
+            let (s, c) = azimuth(i);
             let r = self.radii[i % FOOTPRINT_AZIMUTHS];
             (r * c, r * s)
         };
@@ -149,11 +159,16 @@ impl RockShape {
         }
     }
 
+    /// `v` in the rock's own axes turned into the world's by the rock's yaw.
+    fn turned(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        let (s, c) = self.yaw_rad.sin_cos();
+        Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+    }
+
     /// World vector (relative to the centre) of the unit-frame vector `q` for radius `r`.
     fn world_vector(&self, q: &Vector3<f64>, radius_m: f64) -> Vector3<f64> {
-        let (s, c) = self.yaw_rad.sin_cos();
         let a = Vector3::new(q.x * self.axes[0], q.y * self.axes[1], q.z * self.axes[2]);
-        radius_m * Vector3::new(c * a.x - s * a.y, s * a.x + c * a.y, a.z)
+        radius_m * self.turned(&a)
     }
 
     /// Unit-frame vector of the world vector `v` (relative to the centre).
@@ -167,7 +182,7 @@ impl RockShape {
     /// the body is star-shaped about its centre.
     pub fn unit_surface(&self, u: &Vector3<f64>) -> Vector3<f64> {
         let rho = self.cuts.iter().fold(1.0_f64, |rho, cut| {
-            let d = cut[0] * u.x + cut[1] * u.y + cut[2] * u.z;
+            let d = cut_normal(cut).dot(u);
             if d > 0.0 {
                 rho.min(cut[3] / d)
             } else {
@@ -212,7 +227,7 @@ impl RockShape {
         let root = disc.sqrt();
         let (mut t_in, mut t_out) = ((-b - root) / a, (-b + root) / a);
         for cut in &self.cuts {
-            let n = Vector3::new(cut[0], cut[1], cut[2]);
+            let n = cut_normal(cut);
             let (nd, gap) = (n.dot(&d), cut[3] - n.dot(&o));
             if nd.abs() < 1e-15 {
                 if gap < 0.0 {
@@ -258,7 +273,7 @@ impl RockShape {
         // the constraint the point is closest to violating is the face it lies on
         let mut best = (q.norm() - 1.0, q);
         for cut in &self.cuts {
-            let n = Vector3::new(cut[0], cut[1], cut[2]);
+            let n = cut_normal(cut);
             let excess = n.dot(&q) - cut[3];
             if excess > best.0 {
                 best = (excess, n);
@@ -267,38 +282,9 @@ impl RockShape {
         // a unit-frame normal maps to the world by the inverse transpose of the scaling
         let g = best.1;
         let scaled = Vector3::new(g.x / self.axes[0], g.y / self.axes[1], g.z / self.axes[2]);
-        let (s, c) = self.yaw_rad.sin_cos();
-        let n = Vector3::new(
-            c * scaled.x - s * scaled.y,
-            s * scaled.x + c * scaled.y,
-            scaled.z,
-        );
-        n.try_normalize(1e-12).unwrap_or_else(Vector3::z)
-    }
-
-    /// Fraction of the circumscribing ball's volume (radius 1 in the unit frame, before
-    /// the axes scale it) that the cuts keep, by a fixed grid of samples.
-    pub fn kept_fraction(&self) -> f64 {
-        const N: usize = 16;
-        let (mut inside, mut total) = (0usize, 0usize);
-        for i in 0..N {
-            for j in 0..N {
-                for k in 0..N {
-                    let f = |a: usize| -1.0 + (2 * a + 1) as f64 / N as f64;
-                    let q = Vector3::new(f(i), f(j), f(k));
-                    if q.norm_squared() > 1.0 {
-                        continue;
-                    }
-                    total += 1;
-                    let kept = self
-                        .cuts
-                        .iter()
-                        .all(|c| c[0] * q.x + c[1] * q.y + c[2] * q.z <= c[3]);
-                    inside += usize::from(kept);
-                }
-            }
-        }
-        inside as f64 / total.max(1) as f64
+        self.turned(&scaled)
+            .try_normalize(1e-12)
+            .unwrap_or_else(Vector3::z)
     }
 
     /// The footprint seen from above: its radius from the centre at each of
@@ -307,7 +293,7 @@ impl RockShape {
         let center = Point3::origin();
         let mut radii = [0.0; FOOTPRINT_AZIMUTHS];
         for (i, r) in radii.iter_mut().enumerate() {
-            let (s, c) = (std::f64::consts::TAU * i as f64 / FOOTPRINT_AZIMUTHS as f64).sin_cos();
+            let (s, c) = azimuth(i);
             // the footprint is convex and holds the centre: bisect on the radius
             let (mut lo, mut hi) = (0.0, radius_m);
             for _ in 0..30 {
@@ -348,6 +334,28 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
+    /// Fraction of the circumscribing ball's volume (radius 1 in the unit frame, before
+    /// the axes scale it) that the cuts keep, by a fixed grid of samples.
+    fn kept_fraction(shape: &RockShape) -> f64 {
+        const N: usize = 16;
+        let (mut inside, mut total) = (0usize, 0usize);
+        for i in 0..N {
+            for j in 0..N {
+                for k in 0..N {
+                    let f = |a: usize| -1.0 + (2 * a + 1) as f64 / N as f64;
+                    let q = Vector3::new(f(i), f(j), f(k));
+                    if q.norm_squared() > 1.0 {
+                        continue;
+                    }
+                    total += 1;
+                    let kept = shape.cuts.iter().all(|c| cut_normal(c).dot(&q) <= c[3]);
+                    inside += usize::from(kept);
+                }
+            }
+        }
+        inside as f64 / total.max(1) as f64
+    }
+
     fn shapes() -> Vec<RockShape> {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         (0..20)
@@ -364,7 +372,7 @@ mod tests {
         assert!((hit - 2.7).abs() < 1e-12);
         assert!(s.cast_ray(&c, 0.3, &o, &Vector3::y(), 10.0).is_none());
         assert!(s.cast_ray(&c, 0.3, &o, &Vector3::x(), 2.0).is_none());
-        assert_eq!(s.kept_fraction(), 1.0);
+        assert_eq!(kept_fraction(&s), 1.0);
         let n = s.normal_at(&c, 0.3, &(c + Vector3::new(0.0, 0.3, 0.0)));
         assert!((n - Vector3::y()).norm() < 1e-9);
     }
@@ -410,13 +418,13 @@ mod tests {
             let f = shape.footprint(0.5);
             assert!(f.radii.iter().all(|r| *r > 0.1 && *r <= 0.5));
             for (i, r) in f.radii.iter().enumerate() {
-                let a = std::f64::consts::TAU * i as f64 / FOOTPRINT_AZIMUTHS as f64;
+                let (sin, cos) = azimuth(i);
                 let c = Point3::origin();
-                assert!(shape.covers_xy(&c, 0.5, 0.99 * r * a.cos(), 0.99 * r * a.sin()));
-                assert!(!shape.covers_xy(&c, 0.5, 1.01 * r * a.cos(), 1.01 * r * a.sin()));
+                assert!(shape.covers_xy(&c, 0.5, 0.99 * r * cos, 0.99 * r * sin));
+                assert!(!shape.covers_xy(&c, 0.5, 1.01 * r * cos, 1.01 * r * sin));
                 // twice as far out along the same azimuth: at most that radius away (the
                 // polygon may come nearer elsewhere), and outside it
-                let d = f.distance_m(2.0 * r * a.cos(), 2.0 * r * a.sin());
+                let d = f.distance_m(2.0 * r * cos, 2.0 * r * sin);
                 assert!(d > 0.0 && d <= r + 1e-9, "{d} vs {r}");
             }
         }
@@ -426,7 +434,7 @@ mod tests {
     fn drawn_shapes_stay_within_the_radius_and_keep_a_core() {
         for shape in shapes() {
             assert!(shape.axes.iter().all(|a| *a > 0.0 && *a <= 1.0));
-            let f = shape.kept_fraction();
+            let f = kept_fraction(&shape);
             assert!(f > 0.2 && f < 1.0, "kept {f}");
             assert!(shape.top_m(1.0) <= shape.axes[2] + 1e-12);
             // the underside is not cut steeply: straight down stays on the ball

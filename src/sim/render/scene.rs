@@ -10,7 +10,7 @@
 use super::config::RenderConfig;
 use super::hash_noise::{hash64, value_noise};
 use crate::sim::ipex::LANDER_HALF_EXTENT_M;
-use crate::sim::moon::Moon;
+use crate::sim::moon::{Moon, Rock};
 use crate::sim::rock_shape::RockShape;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -60,14 +60,6 @@ const _: () = assert!(FINE_TEXELS.is_power_of_two());
 const FINE_TEXEL_M: f64 = 0.002;
 /// Texel of the site-wide albedo texture, metres.
 const COARSE_TEXEL_M: f64 = 0.02;
-
-/// A rock or pebble to mesh: its shape around a centre, within a radius.
-struct Body {
-    center: Point3<f64>,
-    radius_m: f64,
-    size_radius_m: f64,
-    shape: RockShape,
-}
 
 /// A run of consecutive triangles inside a bounding sphere, culled as a whole.
 #[derive(Clone, Debug, PartialEq)]
@@ -138,13 +130,8 @@ impl Scene {
                 _ => 3,
             };
             let albedo = config.rock_albedo * (0.7 + 0.6 * next());
-            let body = Body {
-                center: rock.center,
-                radius_m: rock.radius_m,
-                size_radius_m: moon.rock_size_radius_m(i),
-                shape: rock.shape,
-            };
-            scene.add_body(ObjectKind::Rock(i), &body, albedo, level);
+            let size_radius_m = moon.rock_size_radius_m(i);
+            scene.add_body(ObjectKind::Rock(i), rock, size_radius_m, albedo, level);
         }
         let count = (config.pebbles_per_m2 * (2.0 * half_m).powi(2)).round() as usize;
         let r_max = config.pebble_radius_max_m;
@@ -158,13 +145,12 @@ impl Scene {
             let flatten = 0.5 + 0.3 * next();
             let z = moon.height_at(x, y) + r * flatten * (0.1 + 0.3 * next());
             let albedo = config.rock_albedo * (0.6 + 0.8 * next());
-            let body = Body {
+            let pebble = Rock {
                 center: Point3::new(x, y, z),
                 radius_m: r,
-                size_radius_m: r,
                 shape: RockShape::flattened(flatten),
             };
-            scene.add_body(ObjectKind::Pebble, &body, albedo, 0);
+            scene.add_body(ObjectKind::Pebble, &pebble, r, albedo, 0);
         }
         scene.make_textures(config, seed);
         scene
@@ -268,14 +254,22 @@ impl Scene {
         self.push_cluster(first, [-h, -h, z0], [h, h, z1]);
     }
 
-    fn add_body(&mut self, kind: ObjectKind, body: &Body, albedo: f64, level: usize) {
+    /// Mesh a rock or pebble (`size_radius_m`: its size, [`SceneObject::size_radius_m`]).
+    fn add_body(
+        &mut self,
+        kind: ObjectKind,
+        body: &Rock,
+        size_radius_m: f64,
+        albedo: f64,
+        level: usize,
+    ) {
         let c = body.center;
         let id = self.add_object(SceneObject {
             kind,
             center: [c.x, c.y, c.z],
             radius_m: body.radius_m,
             shape: body.shape,
-            size_radius_m: body.size_radius_m,
+            size_radius_m,
             albedo,
         });
         let (unit_vertices, unit_triangles) = super::icosphere::icosphere(level);
