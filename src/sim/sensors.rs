@@ -316,9 +316,12 @@ impl<'a> ViewContext<'a> {
     /// Whether a line of sight reaches rock `i`: to the middle of its height above its
     /// centre, or else to just under its top (a low rock behind a rise shows its top only).
     fn sees_rock(&self, i: usize, rock: &Rock, candidates: &[usize]) -> bool {
-        let up = rock.shape.unit_surface(&Vector3::z()).z * rock.shape.axes[2] * rock.radius_m;
+        let above_center = rock
+            .shape
+            .surface_point(&rock.center, rock.radius_m, &Vector3::z())
+            - rock.center;
         [0.5, 0.9].iter().any(|fraction| {
-            let target = rock.center + Vector3::new(0.0, 0.0, fraction * up);
+            let target = rock.center + above_center * *fraction;
             let to = target - self.origin;
             let dist = to.norm();
             let dir = to / dist;
