@@ -29,7 +29,7 @@ render() { # seed dir [low]
   [ -f "$dir/rocks.json" ] && return 0
   # per-seed appearance, drawn from the seed (awk's srand is deterministic)
   read -r elev azim rock_albedo regolith exposure session < <(awk -v s="$seed" 'BEGIN{srand(s*7919+13);
-    printf "%.1f %.1f %.2f %.2f %.0f %d\n", 5+25*rand(), 360*rand(), 0.8+0.7*rand(), 0.8+0.4*rand(), 120+160*rand(), 1+int(2*rand())}')
+    printf "%.1f %.1f %.2f %.2f %.0f %d\n", 5+25*rand(), 360*rand(), 0.8+0.7*rand(), 0.8+0.4*rand(), 150+250*rand(), 1+int(2*rand())}')
   if [ "$low" = 1 ]; then
     elev=$(awk -v s="$seed" 'BEGIN{srand(s*104729+7); rand(); printf "%.1f", 5+7*rand()}')
   fi

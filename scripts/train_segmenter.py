@@ -90,7 +90,7 @@ def load_dirs(dirs):
 
 
 def augment(img, rng):
-    """Photometric augmentations for the domain gap: exposure, gamma, blur, noise."""
+    """Photometric augmentations for the domain gap: exposure, gamma, blur, grain, noise."""
     x = img.astype(np.float32) / 255.0
     x = np.clip(x * rng.uniform(0.55, 1.6), 0, 1)  # exposure
     x = x ** rng.uniform(0.7, 1.45)  # gamma
@@ -99,8 +99,21 @@ def augment(img, rng):
         k = np.array([a, 1 - 2 * a, a], np.float32)
         x = np.apply_along_axis(lambda r: np.convolve(r, k, mode="same"), 1, x)
         x = np.apply_along_axis(lambda c: np.convolve(c, k, mode="same"), 0, x)
+    if rng.random() < 0.5:  # ground texture: a multiplicative log-normal field of random grain
+        x = x * grain_field(x.shape, rng)
     x = x + rng.normal(0, rng.uniform(0, 0.025), x.shape).astype(np.float32)  # noise
     return np.clip(x, 0, 1).astype(np.float32)
+
+
+def grain_field(shape, rng):
+    """exp(σ·n) with n a unit Gaussian field on a coarse grid of 3–16 px cells, bilinearly
+    upsampled, σ ≤ 0.2: the real ground's grainier albedo texture than the renderer's."""
+    h, w = shape
+    cell = rng.uniform(3, 16)
+    gh, gw = int(h / cell) + 2, int(w / cell) + 2
+    coarse = rng.normal(0, 1, (gh, gw)).astype(np.float32)
+    up = np.asarray(Image.fromarray(coarse, mode="F").resize((int(gw * cell), int(gh * cell)), Image.BILINEAR))
+    return np.exp(rng.uniform(0, 0.2) * up[:h, :w]).astype(np.float32)
 
 
 def batch(images, targets, n, rng):

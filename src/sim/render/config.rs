@@ -29,8 +29,16 @@ pub struct RenderConfig {
     /// Sun azimuth, degrees, counter-clockwise from the world's +x axis.
     pub sun_azimuth_deg: f64,
     /// Weight `L` of the Lommel–Seeliger term in the lunar-Lambert reflectance
-    /// `2L·μ0/(μ0+μ) + (1−L)·μ0` (1: pure Lommel–Seeliger, 0: Lambert).
+    /// `2L·μ0/(μ0+μ) + (1−L)·μ0` (1: pure Lommel–Seeliger, 0: Lambert); with
+    /// `phase_dependent_weight`, the weight at zero phase.
     pub lommel_seeliger_weight: f64,
+    /// Let the Lommel–Seeliger weight fall with the phase angle α between the sun and the
+    /// viewer, as fitted to the Moon by McEwen (1991): `L(α) = 1 − 0.019α + 2.42·10⁻⁴α²
+    /// − 1.46·10⁻⁶α³` (α in degrees, clamped to [0, 1]), times `lommel_seeliger_weight`.
+    /// Looking away from a low sun the ground is lit almost evenly (Lommel–Seeliger); looking
+    /// across or into it, it shades like Lambert, and sun-facing rock faces outshine it.
+    /// `false`: the fixed weight.
+    pub phase_dependent_weight: bool,
     /// Light in shadows and on faces turned away from the sun, as a fraction of a
     /// sun-facing surface's (black sky: only a little scattered light).
     pub ambient: f64,
@@ -66,14 +74,15 @@ impl Default for RenderConfig {
             resolution_scale: 1.0,
             sun_elevation_deg: 15.0,
             sun_azimuth_deg: 30.0,
-            lommel_seeliger_weight: 0.8,
+            lommel_seeliger_weight: 1.0,
+            phase_dependent_weight: true,
             ambient: 0.03,
             regolith_albedo: 1.0,
             albedo_contrast: 0.25,
             rock_albedo: 1.1,
             pebbles_per_m2: 3.0,
             pebble_radius_max_m: 0.04,
-            exposure_dn: 150.0,
+            exposure_dn: 250.0,
             gamma: 1.6,
             electrons_per_dn: 20.0,
             read_noise_dn: 1.5,

@@ -55,6 +55,9 @@ pub struct Renderer {
     rasters: std::sync::Mutex<Vec<Raster>>,
     /// Unit vector toward the sun, world frame.
     sun: Vector3<f64>,
+    /// The Lommel–Seeliger weight against `sin(α/2)` of the phase angle α, on
+    /// [`PHASE_TABLE_STEPS`] even steps of [0, 1] (smooth in that variable, unlike in `cos α`).
+    phase_weight: Vec<f64>,
 }
 
 /// `rover_from_left_camera` of the front pair, optical frame (x right, y down, z forward).
@@ -102,6 +105,7 @@ impl Renderer {
             sensor: Sensor::new(config),
             rasters: std::sync::Mutex::new(Vec::new()),
             sun: config.sun_direction(),
+            phase_weight: phase_weight_table(config),
         })
     }
 
@@ -229,7 +233,7 @@ impl Renderer {
     #[inline]
     fn radiance(&self, p: &Point3<f64>, ray: &Vector3<f64>, object: u32, triangle: u32) -> f64 {
         let o = &self.scene.objects[object as usize];
-        let l = self.config.lommel_seeliger_weight;
+        let l = self.lommel_seeliger_weight(ray);
         let view_cos = |n: &Vector3<f64>| (-n.dot(ray) / ray.norm()).max(1e-3);
         let (normal, albedo) = match o.kind {
             ObjectKind::Terrain => {
@@ -262,6 +266,19 @@ impl Renderer {
         albedo * (direct + self.config.ambient)
     }
 
+    /// Weight of the Lommel–Seeliger term for a surface seen along `ray` (any length): the
+    /// configured one, or McEwen's phase function of it (see
+    /// [`RenderConfig::phase_dependent_weight`]).
+    #[inline]
+    fn lommel_seeliger_weight(&self, ray: &Vector3<f64>) -> f64 {
+        let cos_phase = -self.sun.dot(ray) / ray.norm().max(1e-300);
+        // sin(α/2) = sqrt((1 − cos α) / 2)
+        let t = ((1.0 - cos_phase) / 2.0).clamp(0.0, 1.0).sqrt() * PHASE_TABLE_STEPS as f64;
+        let k = (t as usize).min(PHASE_TABLE_STEPS - 1);
+        let f = t - k as f64;
+        self.phase_weight[k] * (1.0 - f) + self.phase_weight[k + 1] * f
+    }
+
     /// The stored unit normal of scene triangle `triangle`.
     #[inline]
     fn triangle_normal(&self, triangle: u32) -> Vector3<f64> {
@@ -277,6 +294,31 @@ fn lunar_lambert(mu0: f64, mu: f64, l: f64) -> f64 {
     2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
 }
 
+/// Steps of the renderer's table of the Lommel–Seeliger weight against `sin(α/2)`.
+const PHASE_TABLE_STEPS: usize = 256;
+
+/// The Lommel–Seeliger weight at `sin(α/2) = k / PHASE_TABLE_STEPS`, `k = 0..=STEPS`.
+fn phase_weight_table(config: &RenderConfig) -> Vec<f64> {
+    let l0 = config.lommel_seeliger_weight;
+    (0..=PHASE_TABLE_STEPS)
+        .map(|k| {
+            if !config.phase_dependent_weight {
+                return l0;
+            }
+            let half_phase = (k as f64 / PHASE_TABLE_STEPS as f64).asin();
+            l0 * mcewen_weight(2.0 * half_phase.to_degrees())
+        })
+        .collect()
+}
+
+/// McEwen's (1991) lunar Lommel–Seeliger weight at phase angle `phase_deg`, clamped to
+/// [0, 1]: 1 at opposition, about 0.6 at 30°, 0.4 at 60°, 0.2 at 90°, 0 beyond about 105°.
+#[inline]
+fn mcewen_weight(phase_deg: f64) -> f64 {
+    let a = phase_deg;
+    (1.0 - 0.019 * a + 2.42e-4 * a * a - 1.46e-6 * a * a * a).clamp(0.0, 1.0)
+}
+
 /// Texel of the baked terrain sunlight, metres.
 const TERRAIN_LIGHT_TEXEL_M: f64 = 0.01;
 
@@ -287,4 +329,49 @@ fn face_normal(scene: &Scene, triangle: u32) -> [f64; 3] {
     let n = (v[1] - v[0]).cross(&(v[2] - v[0]));
     let n = n / n.norm().max(1e-300);
     [n.x, n.y, n.z]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{mcewen_weight, phase_weight_table, PHASE_TABLE_STEPS};
+    use crate::sim::render::config::RenderConfig;
+
+    #[test]
+    fn mcewens_weight_falls_from_opposition_to_lambert() {
+        assert!((mcewen_weight(0.0) - 1.0).abs() < 1e-12);
+        // McEwen's table: about 0.61 at 30°, 0.42 at 60°, 0.19 at 90°
+        assert!((mcewen_weight(30.0) - 0.609).abs() < 2e-3);
+        assert!((mcewen_weight(60.0) - 0.416).abs() < 2e-3);
+        assert!((mcewen_weight(90.0) - 0.186).abs() < 2e-3);
+        assert_eq!(mcewen_weight(130.0), 0.0);
+        let mut last = 1.0;
+        for a in 0..180 {
+            let w = mcewen_weight(a as f64);
+            assert!(w <= last + 1e-12 && (0.0..=1.0).contains(&w), "{a}: {w}");
+            last = w;
+        }
+    }
+
+    #[test]
+    fn the_phase_table_interpolates_mcewens_weight_within_a_hundredth() {
+        let config = RenderConfig::default();
+        let table = phase_weight_table(&config);
+        for a in 0..=1800 {
+            let alpha = a as f64 / 10.0;
+            let t = (alpha.to_radians() / 2.0).sin() * PHASE_TABLE_STEPS as f64;
+            let k = (t as usize).min(PHASE_TABLE_STEPS - 1);
+            let f = t - k as f64;
+            let w = table[k] * (1.0 - f) + table[k + 1] * f;
+            // worst at the clamp near 106° (0.005), elsewhere under 0.001
+            let tolerance = if (100.0..110.0).contains(&alpha) {
+                0.01
+            } else {
+                1e-3
+            };
+            assert!(
+                (w - mcewen_weight(alpha)).abs() < tolerance,
+                "{alpha}°: {w}"
+            );
+        }
+    }
 }
