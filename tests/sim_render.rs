@@ -116,8 +116,9 @@ fn refuses_bad_input_and_writes_nothing() {
     assert!(!fresh.exists());
 }
 
-/// `segloc eval render` on one half-resolution frame: the JSON has the documented blocks,
-/// and a sun below the horizon is refused naming the field.
+/// `segloc eval render` on one half-resolution frame: the JSON has the documented blocks and
+/// names the segmenter; a sun below the horizon is refused naming the field, and so is a
+/// breakdown (the geometric segmenter's stages) asked of another segmenter.
 #[test]
 fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
     let run = segloc()
@@ -132,6 +133,26 @@ fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
         assert!(v["overall"].get(key).is_some(), "{key}: {v}");
     }
     assert_eq!(v["by_range"].as_array().map(Vec::len), Some(3));
+    assert_eq!(v["segmenter"], "geometric");
+    let run = segloc()
+        .args([
+            "eval",
+            "render",
+            "--seeds",
+            "3",
+            "--half",
+            "--segmenter",
+            "learned",
+        ])
+        .args(["--breakdown", "never-written.jsonl"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(
+        stderr_of(&run).contains("--breakdown"),
+        "{}",
+        stderr_of(&run)
+    );
     let run = segloc()
         .args([
             "eval",

@@ -2,7 +2,7 @@
 //! scored against the renderer's truth (recall, precision, centroid error; overall, by range
 //! band and by sun elevation). See `segloc::eval::render_front_end`.
 
-use super::detect::load_frontend_config;
+use super::detect::{load_frontend_config, make_segmenter, SegmenterKind};
 use super::print_json;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -10,7 +10,7 @@ use segloc::eval::render_breakdown::diagnose_frame;
 use segloc::eval::render_front_end::{
     evaluate_render, summarize, FrameScore, MatchConfig, RenderEvalOptions, Summary,
 };
-use segloc::perception::{FrontEnd, GeometricSegmenter};
+use segloc::perception::FrontEnd;
 use segloc::sim::render::scoring::quantile;
 use segloc::sim::render::RenderConfig;
 use serde_json::json;
@@ -45,10 +45,17 @@ pub struct EvalRenderArgs {
     /// Front-end settings (TOML, as `segloc detect --frontend-config`).
     #[arg(long, value_name = "TOML")]
     frontend_config: Option<PathBuf>,
+    /// The segmenter, as `segloc detect --segmenter`.
+    #[arg(long, value_enum, default_value = "geometric")]
+    segmenter: SegmenterKind,
+    /// ONNX model (`--segmenter onnx`, or another model for `learned`).
+    #[arg(long, value_name = "ONNX")]
+    model: Option<PathBuf>,
     /// Write every frame's rocks and detections as JSON lines here.
     #[arg(long, value_name = "FILE")]
     frames: Option<PathBuf>,
-    /// Write a diagnosis of every counted rock (stages, cause of a miss) as JSON lines here.
+    /// Write a diagnosis of every counted rock (stages, cause of a miss) as JSON lines here
+    /// (the geometric segmenter's stages).
     #[arg(long, value_name = "FILE")]
     breakdown: Option<PathBuf>,
     /// Print one JSON object.
@@ -97,7 +104,10 @@ pub fn run(args: &EvalRenderArgs) -> Result<i32> {
         .context("--sun-deg")?;
     }
     let config = load_frontend_config(args.frontend_config.as_deref())?;
-    let segmenter = Box::new(GeometricSegmenter::new(config.geometric.clone()));
+    if args.breakdown.is_some() && !matches!(args.segmenter, SegmenterKind::Geometric) {
+        bail!("--breakdown diagnoses the geometric segmenter's stages; drop it or use --segmenter geometric");
+    }
+    let segmenter = make_segmenter(args.segmenter, args.model.as_deref(), &config)?;
     let mut front_end = FrontEnd::new(config, segmenter)?;
     let options = RenderEvalOptions {
         seeds: seeds.clone(),
@@ -123,7 +133,13 @@ pub fn run(args: &EvalRenderArgs) -> Result<i32> {
     if let Some(path) = &args.breakdown {
         segloc_maps::write_atomic(path, diagnoses.as_bytes())?;
     }
-    report(args, &seeds, &scores, &options.matching)
+    report(
+        args,
+        &seeds,
+        &scores,
+        &options.matching,
+        front_end.segmenter_name(),
+    )
 }
 
 fn push_json_line(out: &mut String, value: &impl serde::Serialize) {
@@ -138,6 +154,7 @@ fn report(
     seeds: &[u64],
     scores: &[FrameScore],
     matching: &MatchConfig,
+    segmenter: &str,
 ) -> Result<i32> {
     let all: Vec<&FrameScore> = scores.iter().collect();
     let everything = (0.0, f64::INFINITY);
@@ -165,7 +182,7 @@ fn report(
     let fe = |q| quantile(&front_end, q);
     if args.json {
         print_json(&json!({
-            "seeds": seeds, "sun_deg": args.sun_deg, "matching": matching,
+            "seeds": seeds, "sun_deg": args.sun_deg, "matching": matching, "segmenter": segmenter,
             "overall": overall,
             "by_range": by_band.iter().map(|(k, s)| json!({"band": k, "summary": s})).collect::<Vec<_>>(),
             "by_sun": by_sun.iter().map(|(k, s)| json!({"sun_deg": k, "summary": s})).collect::<Vec<_>>(),
@@ -174,6 +191,7 @@ fn report(
         }))?;
         return Ok(0);
     }
+    println!("segmenter {segmenter}");
     println!("| set | frames | rocks | detections | recall | precision | centroid error median / p90 (cm) |");
     println!("|---|---|---|---|---|---|---|");
     let row = |name: &str, s: &Summary| {
