@@ -35,7 +35,7 @@ real = {s: json.load(open(f"{tmp}/real_{s}.json")) for s in ("geometric", "learn
 rend = {s: json.load(open(f"{tmp}/rendered_{s}.json")) for s in ("geometric", "learned")}
 print("## Segmenters: learned (U-Net, models/boulders.onnx) vs geometric\n")
 print(f"{datetime.date.today()}, AMD EPYC, 2 cores. Real: 8 LAC pairs vs {labels} "
-      f"({real['learned']['total']['rocks']} rocks within 8 m). Rendered: held-out seeds 901-904 (1280 x 720 unless VAL_DIR is given), "
+      f"({real['learned']['total']['rocks']} rocks within 8 m). Rendered: validation seeds 901-904 (never trained on; they pick the exported checkpoint; 1280 x 720 unless VAL_DIR is given), "
       "rocks >= 10 cm within 6 m.\n")
 print("| segmenter | real recall | real precision | rendered recall | rendered precision | centroid error (median) | segment ms/pair |")
 print("|---|---|---|---|---|---|---|")

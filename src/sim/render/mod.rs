@@ -2,13 +2,15 @@
 //!
 //! [`Renderer::render_stereo`] draws the terrain mesh, the rocks, pebbles and the lander of a
 //! [`crate::sim::moon::Moon`] with a z-buffer rasterizer ([`raster`]) and a shadow map from a
-//! low sun ([`shadow`]), shades them with a lunar-Lambert reflectance and multi-scale albedo
-//! textures ([`scene`]), and exposes 8-bit images with shot and read noise ([`sensor`]). Each
-//! frame carries its ground truth ([`truth`]): the left camera's pose, per-pixel depth and
-//! rock instance, and the visible rocks.
+//! low sun ([`shadow`]), shades them with McEwen's phase-dependent lunar-Lambert reflectance
+//! (see [`RenderConfig::phase_dependent_weight`]) and multi-scale albedo textures
+//! ([`scene`]), and exposes 8-bit images with shot and read noise ([`sensor`]). Each frame
+//! carries its ground truth ([`truth`]): the left camera's pose, per-pixel depth and rock
+//! instance, and the visible rocks.
 //!
-//! Rocks are the moon's spheres (the shapes the ray casts of
-//! [`crate::sim::world_rays`] and the LAC ground truth use), drawn as geodesic polyhedra.
+//! Rocks are the moon's angular shapes ([`crate::sim::rock_shape`], the shapes the ray casts
+//! of [`crate::sim::world_rays`] and the LAC ground truth use), drawn as geodesic polyhedra
+//! pushed onto their surfaces.
 
 pub mod config;
 pub mod hash_noise;
