@@ -38,3 +38,12 @@ pub fn stderr_of(out: &std::process::Output) -> String {
 pub fn assert_success(out: &std::process::Output) {
     assert_eq!(out.status.code(), Some(0), "{}", stderr_of(out));
 }
+
+/// Assert that a finished command was refused as bad input: exit code 2 and `needle` in its
+/// stderr.
+#[track_caller]
+pub fn assert_refused(out: &std::process::Output, needle: &str) {
+    let err = stderr_of(out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(needle), "expected '{needle}' in: {err}");
+}

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{assert_success, segloc, stderr_of};
+use common::{assert_refused, assert_success, segloc};
 
 #[test]
 fn short_render_writes_the_documented_layout() {
@@ -81,8 +81,7 @@ fn refuses_bad_input_and_writes_nothing() {
         .arg(&busy)
         .output()
         .unwrap();
-    assert_eq!(run.status.code(), Some(2));
-    assert!(stderr_of(&run).contains("not empty"), "{}", stderr_of(&run));
+    assert_refused(&run, "not empty");
     assert!(busy.join("keep.txt").is_file());
     let fresh = tmp.path().join("fresh");
     let run = segloc()
@@ -91,12 +90,7 @@ fn refuses_bad_input_and_writes_nothing() {
         .arg(&fresh)
         .output()
         .unwrap();
-    assert_eq!(run.status.code(), Some(2));
-    assert!(
-        stderr_of(&run).contains("sun_elevation_deg"),
-        "{}",
-        stderr_of(&run)
-    );
+    assert_refused(&run, "sun_elevation_deg");
     assert!(!fresh.exists());
     let config = tmp.path().join("render.toml");
     std::fs::write(&config, "read_noise_dn = -1.0\n").unwrap();
@@ -107,12 +101,7 @@ fn refuses_bad_input_and_writes_nothing() {
         .arg(&fresh)
         .output()
         .unwrap();
-    assert_eq!(run.status.code(), Some(2));
-    assert!(
-        stderr_of(&run).contains("read_noise_dn"),
-        "{}",
-        stderr_of(&run)
-    );
+    assert_refused(&run, "read_noise_dn");
     assert!(!fresh.exists());
 }
 
@@ -147,12 +136,7 @@ fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
         .args(["--breakdown", "never-written.jsonl"])
         .output()
         .unwrap();
-    assert_eq!(run.status.code(), Some(2));
-    assert!(
-        stderr_of(&run).contains("--breakdown"),
-        "{}",
-        stderr_of(&run)
-    );
+    assert_refused(&run, "--breakdown");
     let run = segloc()
         .args([
             "eval",
@@ -165,10 +149,5 @@ fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
         ])
         .output()
         .unwrap();
-    assert_eq!(run.status.code(), Some(2));
-    assert!(
-        stderr_of(&run).contains("sun_elevation_deg"),
-        "{}",
-        stderr_of(&run)
-    );
+    assert_refused(&run, "sun_elevation_deg");
 }
