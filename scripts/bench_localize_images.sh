@@ -69,6 +69,8 @@ def rover_positions(truth):
 def rmse(est, truth):
     e = [math.dist(p, truth[t]) for t, (p, _) in est.items() if t in truth]
     return (math.sqrt(sum(x * x for x in e) / len(e)), max(e)) if e else (float("nan"), float("nan"))
+def cm(x):
+    return "—" if math.isnan(x) else f"{100 * x:.1f}"
 rows = []
 for s in range(first, last + 1):
     base = f"{d}/s{s}-t{seconds}"
@@ -80,7 +82,7 @@ for s in range(first, last + 1):
     fix = v["first_fix_t"]
     rows.append(f"| {s} | {v['frames']} | {im['vo_lost_frames']} | {im['detections'] / max(im['detection_frames'], 1):.1f} "
                 f"| {v['fixes']['accepted']} / {v['fixes']['refused']} | {'—' if fix is None else f'{fix:.0f} s'} "
-                f"| {100 * after:.1f} / {100 * after_max:.1f} | {100 * every:.1f} | {im['vo_ms']['median']:.0f} | {im['front_end_ms']['median']:.0f} |")
+                f"| {cm(after)} / {cm(after_max)} | {cm(every)} | {im['vo_ms']['median']:.0f} | {im['front_end_ms']['median']:.0f} |")
 commit = sh("git rev-parse --short HEAD")
 date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
 print("\n".join([
