@@ -123,31 +123,21 @@ fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
     }
     assert_eq!(v["by_range"].as_array().map(Vec::len), Some(3));
     assert_eq!(v["segmenter"], "geometric");
-    let run = segloc()
+    let eval_seed_3 = || {
+        let mut command = segloc();
+        command.args(["eval", "render", "--seeds", "3", "--half"]);
+        command
+    };
+    let run = eval_seed_3()
         .args([
-            "eval",
-            "render",
-            "--seeds",
-            "3",
-            "--half",
             "--segmenter",
             "learned",
+            "--breakdown",
+            "never-written.jsonl",
         ])
-        .args(["--breakdown", "never-written.jsonl"])
         .output()
         .unwrap();
     assert_refused(&run, "--breakdown");
-    let run = segloc()
-        .args([
-            "eval",
-            "render",
-            "--seeds",
-            "3",
-            "--sun-deg",
-            "-2",
-            "--half",
-        ])
-        .output()
-        .unwrap();
+    let run = eval_seed_3().args(["--sun-deg", "-2"]).output().unwrap();
     assert_refused(&run, "sun_elevation_deg");
 }
