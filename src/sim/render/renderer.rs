@@ -55,9 +55,8 @@ pub struct Renderer {
     rasters: std::sync::Mutex<Vec<Raster>>,
     /// Unit vector toward the sun, world frame.
     sun: Vector3<f64>,
-    /// The Lommel–Seeliger weight against `sin(α/2)` of the phase angle α, on
-    /// [`PHASE_TABLE_STEPS`] even steps of [0, 1] (smooth in that variable, unlike in `cos α`).
-    phase_weight: Vec<f64>,
+    /// The Lommel–Seeliger weight against the phase angle.
+    phase_weights: PhaseWeights,
 }
 
 /// `rover_from_left_camera` of the front pair, optical frame (x right, y down, z forward).
@@ -105,7 +104,7 @@ impl Renderer {
             sensor: Sensor::new(config),
             rasters: std::sync::Mutex::new(Vec::new()),
             sun: config.sun_direction(),
-            phase_weight: phase_weight_table(config),
+            phase_weights: PhaseWeights::new(config),
         })
     }
 
@@ -233,8 +232,11 @@ impl Renderer {
     #[inline]
     fn radiance(&self, p: &Point3<f64>, ray: &Vector3<f64>, object: u32, triangle: u32) -> f64 {
         let o = &self.scene.objects[object as usize];
-        let l = self.lommel_seeliger_weight(ray);
-        let view_cos = |n: &Vector3<f64>| (-n.dot(ray) / ray.norm()).max(1e-3);
+        let ray_norm = ray.norm();
+        let l = self
+            .phase_weights
+            .at(-self.sun.dot(ray) / ray_norm.max(1e-300));
+        let view_cos = |n: &Vector3<f64>| (-n.dot(ray) / ray_norm).max(1e-3);
         let (normal, albedo) = match o.kind {
             ObjectKind::Terrain => {
                 // the sun's side baked (smooth normal, shadow map); the viewing angle from
@@ -266,19 +268,6 @@ impl Renderer {
         albedo * (direct + self.config.ambient)
     }
 
-    /// Weight of the Lommel–Seeliger term for a surface seen along `ray` (any length): the
-    /// configured one, or McEwen's phase function of it (see
-    /// [`RenderConfig::phase_dependent_weight`]).
-    #[inline]
-    fn lommel_seeliger_weight(&self, ray: &Vector3<f64>) -> f64 {
-        let cos_phase = -self.sun.dot(ray) / ray.norm().max(1e-300);
-        // sin(α/2) = sqrt((1 − cos α) / 2)
-        let t = ((1.0 - cos_phase) / 2.0).clamp(0.0, 1.0).sqrt() * PHASE_TABLE_STEPS as f64;
-        let k = (t as usize).min(PHASE_TABLE_STEPS - 1);
-        let f = t - k as f64;
-        self.phase_weight[k] * (1.0 - f) + self.phase_weight[k + 1] * f
-    }
-
     /// The stored unit normal of scene triangle `triangle`.
     #[inline]
     fn triangle_normal(&self, triangle: u32) -> Vector3<f64> {
@@ -294,21 +283,41 @@ fn lunar_lambert(mu0: f64, mu: f64, l: f64) -> f64 {
     2.0 * l * mu0 / (mu0 + mu) + (1.0 - l) * mu0
 }
 
-/// Steps of the renderer's table of the Lommel–Seeliger weight against `sin(α/2)`.
+/// Steps of the table of the Lommel–Seeliger weight against `sin(α/2)`.
 const PHASE_TABLE_STEPS: usize = 256;
 
-/// The Lommel–Seeliger weight at `sin(α/2) = k / PHASE_TABLE_STEPS`, `k = 0..=STEPS`.
-fn phase_weight_table(config: &RenderConfig) -> Vec<f64> {
-    let l0 = config.lommel_seeliger_weight;
-    (0..=PHASE_TABLE_STEPS)
-        .map(|k| {
-            if !config.phase_dependent_weight {
-                return l0;
-            }
-            let half_phase = (k as f64 / PHASE_TABLE_STEPS as f64).asin();
-            l0 * mcewen_weight(2.0 * half_phase.to_degrees())
-        })
-        .collect()
+/// The Lommel–Seeliger weight against the phase angle α: the configured one, or McEwen's
+/// phase function of it ([`RenderConfig::phase_dependent_weight`]), tabulated on even steps
+/// of `sin(α/2)` (smooth in that variable, unlike in `cos α`) so that no pixel pays an `acos`.
+struct PhaseWeights {
+    /// The weight at `sin(α/2) = k / PHASE_TABLE_STEPS`, `k = 0..=PHASE_TABLE_STEPS`.
+    table: Vec<f64>,
+}
+
+impl PhaseWeights {
+    fn new(config: &RenderConfig) -> PhaseWeights {
+        let l0 = config.lommel_seeliger_weight;
+        let table = (0..=PHASE_TABLE_STEPS)
+            .map(|k| {
+                if !config.phase_dependent_weight {
+                    return l0;
+                }
+                let half_phase = (k as f64 / PHASE_TABLE_STEPS as f64).asin();
+                l0 * mcewen_weight(2.0 * half_phase.to_degrees())
+            })
+            .collect();
+        PhaseWeights { table }
+    }
+
+    /// The weight at the phase angle whose cosine is `cos_phase`, interpolated linearly.
+    #[inline]
+    fn at(&self, cos_phase: f64) -> f64 {
+        // sin(α/2) = sqrt((1 − cos α) / 2)
+        let t = ((1.0 - cos_phase) / 2.0).clamp(0.0, 1.0).sqrt() * PHASE_TABLE_STEPS as f64;
+        let k = (t as usize).min(PHASE_TABLE_STEPS - 1);
+        let f = t - k as f64;
+        self.table[k] * (1.0 - f) + self.table[k + 1] * f
+    }
 }
 
 /// McEwen's (1991) lunar Lommel–Seeliger weight at phase angle `phase_deg`, clamped to
@@ -333,7 +342,7 @@ fn face_normal(scene: &Scene, triangle: u32) -> [f64; 3] {
 
 #[cfg(test)]
 mod tests {
-    use super::{mcewen_weight, phase_weight_table, PHASE_TABLE_STEPS};
+    use super::{mcewen_weight, PhaseWeights};
     use crate::sim::render::config::RenderConfig;
 
     #[test]
@@ -354,14 +363,10 @@ mod tests {
 
     #[test]
     fn the_phase_table_interpolates_mcewens_weight_within_a_hundredth() {
-        let config = RenderConfig::default();
-        let table = phase_weight_table(&config);
+        let weights = PhaseWeights::new(&RenderConfig::default());
         for a in 0..=1800 {
             let alpha = a as f64 / 10.0;
-            let t = (alpha.to_radians() / 2.0).sin() * PHASE_TABLE_STEPS as f64;
-            let k = (t as usize).min(PHASE_TABLE_STEPS - 1);
-            let f = t - k as f64;
-            let w = table[k] * (1.0 - f) + table[k + 1] * f;
+            let w = weights.at(alpha.to_radians().cos());
             // worst at the clamp near 106° (0.005), elsewhere under 0.001
             let tolerance = if (100.0..110.0).contains(&alpha) {
                 0.01
