@@ -132,6 +132,13 @@ pub enum Rejection {
     Elongated,
     /// Physical size outside [min_size_m, max_size_m].
     Size,
+    /// The mask does not stand out of the ground (the front end's stereo check of
+    /// image-only segmenters, [`relief_gate`](super::relief_gate)).
+    Flat,
+    /// The mask floats above the ground (same check).
+    Floating,
+    /// The mask lies under or against a structure, the lander (same check).
+    Structure,
 }
 
 /// The outcome for each mask, in mask order.

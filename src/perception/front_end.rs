@@ -6,6 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use super::boulders::{boulders_from_masks, Boulder, BoulderConfig, Rejection};
 use super::geometric::GeometricConfig;
+use super::ground::height_above_ground;
+use super::relief_gate::{check_mask, ReliefGateConfig};
 use super::segmenter::{SegmentInput, Segmenter};
 use super::{compute_disparity_with, CameraMount, DisparityMap, GrayImage, Mask, PerceptionError};
 use super::{StereoCamera, StereoConfig, StereoScratch};
@@ -28,6 +30,8 @@ pub struct FrontEndConfig {
     pub onnx: super::onnx::YoloSegConfig,
     /// Decoding of the learned segmenter's outputs.
     pub learned: super::unet_decoder::UnetDecoderConfig,
+    /// The stereo relief check of image-only segmenters' boulders.
+    pub relief: ReliefGateConfig,
 }
 
 /// Wall-clock times of the stages, milliseconds.
@@ -73,6 +77,7 @@ impl FrontEnd {
     ) -> Result<Self, PerceptionError> {
         config.stereo.validate()?;
         config.boulders.validate()?;
+        config.relief.validate()?;
         Ok(FrontEnd {
             config,
             segmenter,
@@ -107,14 +112,26 @@ impl FrontEnd {
             camera: &camera,
         })?;
         let t_segment = start.elapsed();
-        let outcomes = boulders_from_masks(
+        let check_relief = self.config.relief.enabled && !self.segmenter.checks_relief();
+        let boulder_config = BoulderConfig {
+            max_elongation: if check_relief {
+                self.config.relief.max_elongation
+            } else {
+                self.config.boulders.max_elongation
+            },
+            ..self.config.boulders.clone()
+        };
+        let mut outcomes = boulders_from_masks(
             &masks,
             &disparity,
             &camera,
             &self.config.mount,
-            &self.config.boulders,
+            &boulder_config,
             Some((left, right)),
         );
+        if check_relief {
+            self.reject_flat(&masks, &disparity, &mut outcomes);
+        }
         let mut boulders = Vec::new();
         let verdicts = outcomes
             .into_iter()
@@ -139,5 +156,27 @@ impl FrontEnd {
                 total_ms: ms(total),
             },
         })
+    }
+
+    /// Rejects the boulders whose masks do not stand out of the ground, float or belong to a
+    /// structure (see [`relief_gate`](super::relief_gate)); without a ground estimate,
+    /// nothing is judged.
+    fn reject_flat(
+        &self,
+        masks: &[Mask],
+        disparity: &DisparityMap,
+        outcomes: &mut [Result<Boulder, Rejection>],
+    ) {
+        let Some(heights) = height_above_ground(disparity, &self.config.geometric.ground) else {
+            return;
+        };
+        let (geometric, gate) = (&self.config.geometric, &self.config.relief);
+        for (mask, outcome) in masks.iter().zip(outcomes.iter_mut()) {
+            let Ok(boulder) = outcome else { continue };
+            let depth_m = boulder.depth_m;
+            if let Err(why) = check_mask(mask, depth_m, &heights, disparity, geometric, gate) {
+                *outcome = Err(why);
+            }
+        }
     }
 }

@@ -124,6 +124,10 @@ impl Segmenter for GeometricSegmenter {
         "geometric"
     }
 
+    fn checks_relief(&self) -> bool {
+        true
+    }
+
     fn segment(&mut self, input: &SegmentInput<'_>) -> Result<Vec<Mask>, PerceptionError> {
         Ok(segment_geometric(input, &self.config))
     }
@@ -442,7 +446,7 @@ fn near_structure(
 /// region in the image (its columns, up to `structure_overhead_m` above its top row) at the
 /// region's depth (disparity within 15 % of the region's median): the region lies under or
 /// against a structure (see [`GeometricConfig::structure_overhead_m`]).
-fn under_structure(
+pub(crate) fn under_structure(
     region: &[usize],
     hag: &[f32],
     disparity: &[f32],

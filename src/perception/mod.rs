@@ -35,6 +35,7 @@ pub mod lac;
 pub mod mask;
 pub mod onnx;
 pub mod overlay;
+pub mod relief_gate;
 pub mod render;
 pub mod segmenter;
 pub mod unet_decoder;

@@ -21,6 +21,13 @@ pub trait Segmenter: Send {
     /// A short name for reports ("geometric", "onnx", "learned").
     fn name(&self) -> &'static str;
 
+    /// Whether its masks stand out of the ground by construction (the geometric segmenter's
+    /// do); the front end checks the relief of the others' (see
+    /// [`relief_gate`](super::relief_gate)).
+    fn checks_relief(&self) -> bool {
+        false
+    }
+
     /// The masks of the objects in this frame, with a confidence each.
     fn segment(&mut self, input: &SegmentInput<'_>) -> Result<Vec<Mask>, PerceptionError>;
 }

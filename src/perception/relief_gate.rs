@@ -1,0 +1,226 @@
+//! The stereo check of an image-only segmenter's boulders: a boulder stands out of the
+//! ground, sits on it, and is no part of a structure.
+//!
+//! A segmenter that looks only at the image (the learned U-Net, an ONNX model) takes dark
+//! patches of flat ground for rocks (the real LAC images are full of micro-relief shadows a
+//! rendered moon never showed it) and the lander's patterned sides too. Stereo tells them
+//! apart, on the heights above the local ground
+//! ([`height_above_ground`](super::ground::height_above_ground)) under each boulder's mask:
+//! 1. **relief**: a high quantile of the heights reaches a threshold that grows with the
+//!    square of the range, as the height noise of stereo does ([`Rejection::Flat`]);
+//! 2. **base**: a low quantile is within the geometric segmenter's `max_base_height_m` of
+//!    the ground: boulders do not float ([`Rejection::Floating`]);
+//! 3. **structure**: nothing higher than its `max_height_m` stands straight above the mask
+//!    at its depth (the geometric segmenter's own rule, [`under_structure`]):
+//!    [`Rejection::Structure`].
+//!
+//! The geometric segmenter needs none of it: its regions are grown from heights, under
+//! the same rules.
+
+use serde::{Deserialize, Serialize};
+
+use super::boulders::Rejection;
+use super::geometric::{under_structure, GeometricConfig};
+use super::ground::HeightMap;
+use super::{DisparityMap, Mask, PerceptionError};
+
+/// Settings of the relief check.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReliefGateConfig {
+    /// Check the boulders of image-only segmenters (`learned`, `onnx`).
+    pub enabled: bool,
+    /// Height above the local ground the mask must reach, metres, at zero range.
+    pub min_relief_m: f64,
+    /// The threshold grows by this much per square metre of range (metres per m²).
+    pub relief_per_range_sq: f64,
+    /// The quantile (0–1) of the mask's heights compared with the threshold: high, so a
+    /// rock's top counts, but not the maximum, which is a stereo outlier as often as not.
+    pub quantile: f64,
+    /// The quantile (0–1) of the mask's heights that must lie within the geometric
+    /// segmenter's `max_base_height_m` of the ground: low, but not the minimum (a mask's
+    /// edge may spill onto the ground behind).
+    pub base_quantile: f64,
+    /// A mask with fewer pixels with a height than this is not judged (kept).
+    pub min_samples: usize,
+    /// The boulder stage's elongation limit for these segmenters' masks, in place of
+    /// `boulders.max_elongation`: that limit keeps the shadows and terrain edges out of the
+    /// geometric segmenter's regions; here the relief check does, and a small rock seen at a
+    /// grazing angle is wide and low.
+    pub max_elongation: f64,
+}
+
+impl Default for ReliefGateConfig {
+    fn default() -> Self {
+        ReliefGateConfig {
+            enabled: true,
+            // chosen on rendered tuning seeds 11-15 (docs/design/relief-gate.md)
+            min_relief_m: 0.01,
+            relief_per_range_sq: 0.001,
+            quantile: 0.9,
+            base_quantile: 0.1,
+            min_samples: 3,
+            max_elongation: 16.0,
+        }
+    }
+}
+
+impl ReliefGateConfig {
+    /// Checks the ranges; errors name the TOML path (`relief.*`).
+    pub fn validate(&self) -> Result<(), PerceptionError> {
+        let bad = |m: &str| Err(PerceptionError::Config(format!("relief.{m}")));
+        if !(self.min_relief_m.is_finite() && self.min_relief_m >= 0.0) {
+            return bad("min_relief_m must be finite and ≥ 0");
+        }
+        if !(self.relief_per_range_sq.is_finite() && self.relief_per_range_sq >= 0.0) {
+            return bad("relief_per_range_sq must be finite and ≥ 0");
+        }
+        if !(0.0..=1.0).contains(&self.quantile) || !(0.0..=1.0).contains(&self.base_quantile) {
+            return bad("quantile and base_quantile must be in [0, 1]");
+        }
+        if !(self.max_elongation >= 1.0) {
+            return bad("max_elongation must be ≥ 1");
+        }
+        Ok(())
+    }
+
+    /// The relief a boulder at `range_m` must reach, metres.
+    pub fn threshold_at(&self, range_m: f64) -> f64 {
+        self.min_relief_m + self.relief_per_range_sq * range_m * range_m
+    }
+}
+
+/// What stereo says about a boulder's mask at `depth_m`: `Ok` when it stands out of the
+/// ground, sits on it and is no part of a structure (see the module documentation);
+/// a mask with fewer than `min_samples` heights is not judged. `heights` is on the grid
+/// of `disparity`; `geometric` gives the base and structure limits.
+pub fn check_mask(
+    mask: &Mask,
+    depth_m: f64,
+    heights: &HeightMap,
+    disparity: &DisparityMap,
+    geometric: &GeometricConfig,
+    config: &ReliefGateConfig,
+) -> Result<(), Rejection> {
+    let cells = grid_cells(mask, heights.width, heights.height, disparity.scale);
+    let mut values: Vec<f32> = cells
+        .iter()
+        .map(|&p| heights.above_ground_m[p])
+        .filter(|v| v.is_finite())
+        .collect();
+    if values.len() < config.min_samples.max(1) {
+        return Ok(());
+    }
+    if (quantile(&mut values, config.quantile) as f64) < config.threshold_at(depth_m) {
+        return Err(Rejection::Flat);
+    }
+    if quantile(&mut values, config.base_quantile) as f64 > geometric.max_base_height_m {
+        return Err(Rejection::Floating);
+    }
+    let (hag, data, w) = (&heights.above_ground_m, &disparity.data, disparity.width);
+    if under_structure(&cells, hag, data, w, &disparity.camera, geometric) {
+        return Err(Rejection::Structure);
+    }
+    Ok(())
+}
+
+/// The disparity-grid cells (`scale` image pixels a side) holding `mask`'s pixels, each
+/// once, in order.
+fn grid_cells(mask: &Mask, width: usize, height: usize, scale: usize) -> Vec<usize> {
+    let scale = scale.max(1);
+    let mut cells: Vec<usize> = mask
+        .pixels()
+        .map(|(x, y)| (x / scale, y / scale))
+        .filter(|&(gx, gy)| gx < width && gy < height)
+        .map(|(gx, gy)| gy * width + gx)
+        .collect();
+    cells.sort_unstable();
+    cells.dedup();
+    cells
+}
+
+/// The value at rank `round(q · (n − 1))` of `values` (not empty), reordering them.
+fn quantile(values: &mut [f32], q: f64) -> f32 {
+    let k = ((values.len() - 1) as f64 * q).round() as usize;
+    *values.select_nth_unstable_by(k, f32::total_cmp).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::perception::StereoCamera;
+    use nalgebra::Vector3;
+
+    const W: usize = 8;
+
+    /// An 8 × 8 grid at one disparity (about 4.9 m away), the heights given per cell.
+    fn scene(heights: impl Fn(usize, usize) -> f32) -> (HeightMap, DisparityMap) {
+        let camera = StereoCamera::ipex();
+        let above_ground_m = (0..W * W).map(|p| heights(p % W, p / W)).collect();
+        let map = HeightMap {
+            width: W,
+            height: W,
+            depth_m: vec![4.9; W * W],
+            above_ground_m,
+            normal: Vector3::z(),
+        };
+        let disparity = DisparityMap {
+            width: W,
+            height: W,
+            data: vec![30.0; W * W],
+            scale: 1,
+            camera,
+        };
+        (map, disparity)
+    }
+
+    /// The mask of columns 2–4, rows 5–7.
+    fn mask() -> Mask {
+        let px: Vec<(usize, usize)> = (5..8).flat_map(|y| (2..5).map(move |x| (x, y))).collect();
+        Mask::from_pixels(&px, 1.0).unwrap()
+    }
+
+    fn judge(heights: impl Fn(usize, usize) -> f32) -> Result<(), Rejection> {
+        let (map, disparity) = scene(heights);
+        let geometric = GeometricConfig::default();
+        check_mask(
+            &mask(),
+            4.9,
+            &map,
+            &disparity,
+            &geometric,
+            &ReliefGateConfig::default(),
+        )
+    }
+
+    #[test]
+    fn a_rock_on_the_ground_passes() {
+        // its top 10 cm up, its foot on the ground
+        assert_eq!(judge(|_, y| if y == 5 { 0.1 } else { 0.01 }), Ok(()));
+    }
+
+    #[test]
+    fn flat_floating_and_structure_masks_are_rejected() {
+        assert_eq!(judge(|_, _| 0.01), Err(Rejection::Flat));
+        assert_eq!(judge(|_, _| 0.5), Err(Rejection::Floating));
+        // a 2 m high thing straight above the mask, at its depth
+        let under = |x: usize, y: usize| if (x, y) == (3, 1) { 2.0 } else { 0.1 };
+        assert_eq!(judge(under), Err(Rejection::Structure));
+        // beside it, not above: a rock
+        let beside = |x: usize, y: usize| if (x, y) == (7, 1) { 2.0 } else { 0.1 };
+        assert_eq!(judge(beside), Ok(()));
+    }
+
+    #[test]
+    fn a_mask_without_heights_is_not_judged() {
+        assert_eq!(judge(|_, _| f32::NAN), Ok(()));
+    }
+
+    #[test]
+    fn the_threshold_grows_with_the_square_of_the_range() {
+        let c = ReliefGateConfig::default();
+        assert!((c.threshold_at(0.0) - 0.01).abs() < 1e-12);
+        assert!((c.threshold_at(5.0) - 0.035).abs() < 1e-12);
+        assert!(ReliefGateConfig { quantile: 1.5, ..c }.validate().is_err());
+    }
+}
