@@ -78,7 +78,7 @@ impl ReliefGateConfig {
         if !(0.0..=1.0).contains(&self.quantile) || !(0.0..=1.0).contains(&self.base_quantile) {
             return bad("quantile and base_quantile must be in [0, 1]");
         }
-        if !(self.max_elongation >= 1.0) {
+        if self.max_elongation.is_nan() || self.max_elongation < 1.0 {
             return bad("max_elongation must be ≥ 1");
         }
         Ok(())
