@@ -139,6 +139,8 @@ pub enum Rejection {
     Floating,
     /// The mask lies under or against a structure, the lander (same check).
     Structure,
+    /// The mask lies in hard shadow without a sunlit face (same check).
+    Shadow,
 }
 
 /// The outcome for each mask, in mask order.

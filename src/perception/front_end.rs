@@ -130,7 +130,7 @@ impl FrontEnd {
             Some((left, right)),
         );
         if check_relief {
-            self.reject_flat(&masks, &disparity, &mut outcomes);
+            self.reject_flat(&masks, left, &disparity, &mut outcomes);
         }
         let mut boulders = Vec::new();
         let verdicts = outcomes
@@ -164,6 +164,7 @@ impl FrontEnd {
     fn reject_flat(
         &self,
         masks: &[Mask],
+        left: &GrayImage,
         disparity: &DisparityMap,
         outcomes: &mut [Result<Boulder, Rejection>],
     ) {
@@ -174,7 +175,8 @@ impl FrontEnd {
         for (mask, outcome) in masks.iter().zip(outcomes.iter_mut()) {
             let Ok(boulder) = outcome else { continue };
             let depth_m = boulder.depth_m;
-            if let Err(why) = check_mask(mask, depth_m, &heights, disparity, geometric, gate) {
+            let verdict = check_mask(mask, left, depth_m, &heights, disparity, geometric, gate);
+            if let Err(why) = verdict {
                 *outcome = Err(why);
             }
         }

@@ -12,7 +12,10 @@
 //!    the ground: boulders do not float ([`Rejection::Floating`]);
 //! 3. **structure**: nothing higher than its `max_height_m` stands straight above the mask
 //!    at its depth (the geometric segmenter's own rule, [`under_structure`]):
-//!    [`Rejection::Structure`].
+//!    [`Rejection::Structure`];
+//! 4. **shadow**: more than the geometric segmenter's `max_shadow_fraction` of the mask's
+//!    pixels are in hard shadow and fewer than its `min_sunlit_fraction` are sunlit (its own
+//!    rule again: a shadow, where stereo matches only noise): [`Rejection::Shadow`].
 //!
 //! The geometric segmenter needs none of it: its regions are grown from heights, under
 //! the same rules.
@@ -22,7 +25,7 @@ use serde::{Deserialize, Serialize};
 use super::boulders::Rejection;
 use super::geometric::{under_structure, GeometricConfig};
 use super::ground::HeightMap;
-use super::{DisparityMap, Mask, PerceptionError};
+use super::{DisparityMap, GrayImage, Mask, PerceptionError};
 
 /// Settings of the relief check.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -30,6 +33,8 @@ use super::{DisparityMap, Mask, PerceptionError};
 pub struct ReliefGateConfig {
     /// Check the boulders of image-only segmenters (`learned`, `onnx`).
     pub enabled: bool,
+    /// Apply rule 4 (shadow) too.
+    pub reject_shadows: bool,
     /// Height above the local ground the mask must reach, metres, at zero range.
     pub min_relief_m: f64,
     /// The threshold grows by this much per square metre of range (metres per m²).
@@ -54,6 +59,7 @@ impl Default for ReliefGateConfig {
     fn default() -> Self {
         ReliefGateConfig {
             enabled: true,
+            reject_shadows: true,
             // chosen on rendered tuning seeds 11-15 (docs/design/relief-gate.md)
             min_relief_m: 0.01,
             relief_per_range_sq: 0.001,
@@ -93,9 +99,11 @@ impl ReliefGateConfig {
 /// What stereo says about a boulder's mask at `depth_m`: `Ok` when it stands out of the
 /// ground, sits on it and is no part of a structure (see the module documentation);
 /// a mask with fewer than `min_samples` heights is not judged. `heights` is on the grid
-/// of `disparity`; `geometric` gives the base and structure limits.
+/// of `disparity`; `geometric` gives the base, structure and shadow limits; `left` is the
+/// image the mask is in.
 pub fn check_mask(
     mask: &Mask,
+    left: &GrayImage,
     depth_m: f64,
     heights: &HeightMap,
     disparity: &DisparityMap,
@@ -121,7 +129,23 @@ pub fn check_mask(
     if under_structure(&cells, hag, data, w, &disparity.camera, geometric) {
         return Err(Rejection::Structure);
     }
+    if config.reject_shadows && in_shadow(mask, left, geometric) {
+        return Err(Rejection::Shadow);
+    }
     Ok(())
+}
+
+/// Rule 4: mostly in hard shadow, without a sunlit face.
+fn in_shadow(mask: &Mask, left: &GrayImage, geometric: &GeometricConfig) -> bool {
+    let (mut n, mut dark, mut lit) = (0usize, 0usize, 0usize);
+    for (x, y) in mask.pixels().filter(|&(x, y)| x < left.width && y < left.height) {
+        let v = left.get(x, y);
+        n += 1;
+        dark += usize::from(v < geometric.shadow_level);
+        lit += usize::from(v > geometric.sunlit_level);
+    }
+    let fraction = |k: usize| k as f64 / n.max(1) as f64;
+    fraction(dark) > geometric.max_shadow_fraction && fraction(lit) < geometric.min_sunlit_fraction
 }
 
 /// The disparity-grid cells (`scale` image pixels a side) holding `mask`'s pixels, each
@@ -181,10 +205,17 @@ mod tests {
     }
 
     fn judge(heights: impl Fn(usize, usize) -> f32) -> Result<(), Rejection> {
+        judge_in(heights, 90)
+    }
+
+    /// As [`judge`], the image one grey level.
+    fn judge_in(heights: impl Fn(usize, usize) -> f32, grey: u8) -> Result<(), Rejection> {
         let (map, disparity) = scene(heights);
         let geometric = GeometricConfig::default();
+        let left = GrayImage::new(W, W, vec![grey; W * W]).unwrap();
         check_mask(
             &mask(),
+            &left,
             4.9,
             &map,
             &disparity,
@@ -209,6 +240,13 @@ mod tests {
         // beside it, not above: a rock
         let beside = |x: usize, y: usize| if (x, y) == (7, 1) { 2.0 } else { 0.1 };
         assert_eq!(judge(beside), Ok(()));
+    }
+
+    #[test]
+    fn a_mask_in_hard_shadow_without_a_lit_face_is_rejected() {
+        let rock = |_: usize, y: usize| if y == 5 { 0.1 } else { 0.01 };
+        assert_eq!(judge_in(rock, 10), Err(Rejection::Shadow));
+        assert_eq!(judge_in(rock, 200), Ok(()));
     }
 
     #[test]
