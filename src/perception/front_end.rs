@@ -30,7 +30,8 @@ pub struct FrontEndConfig {
     pub onnx: super::onnx::YoloSegConfig,
     /// Decoding of the learned segmenter's outputs.
     pub learned: super::unet_decoder::UnetDecoderConfig,
-    /// The stereo relief check of image-only segmenters' boulders.
+    /// The stereo check of image-only segmenters' boulders (relief, foot, structure,
+    /// shadow).
     pub relief: ReliefGateConfig,
 }
 
@@ -130,7 +131,7 @@ impl FrontEnd {
             Some((left, right)),
         );
         if check_relief {
-            self.reject_flat(&masks, left, &disparity, &mut outcomes);
+            self.apply_stereo_check(&masks, left, &disparity, &mut outcomes);
         }
         let mut boulders = Vec::new();
         let verdicts = outcomes
@@ -158,10 +159,10 @@ impl FrontEnd {
         })
     }
 
-    /// Rejects the boulders whose masks do not stand out of the ground, float or belong to a
-    /// structure (see [`relief_gate`](super::relief_gate)); without a ground estimate,
-    /// nothing is judged.
-    fn reject_flat(
+    /// Rejects the boulders whose masks do not stand out of the ground, float, belong to a
+    /// structure or lie in hard shadow (see [`relief_gate`](super::relief_gate)); without a
+    /// ground estimate, nothing is judged.
+    fn apply_stereo_check(
         &self,
         masks: &[Mask],
         left: &GrayImage,

@@ -1,5 +1,5 @@
 //! The stereo check of an image-only segmenter's boulders: a boulder stands out of the
-//! ground, sits on it, and is no part of a structure.
+//! ground, sits on it, is no part of a structure and is not a shadow.
 //!
 //! A segmenter that looks only at the image (the learned U-Net, an ONNX model) takes dark
 //! patches of flat ground for rocks (the real LAC images are full of micro-relief shadows a
@@ -27,7 +27,7 @@ use super::geometric::{under_structure, GeometricConfig};
 use super::ground::HeightMap;
 use super::{DisparityMap, GrayImage, Mask, PerceptionError};
 
-/// Settings of the relief check.
+/// Settings of the stereo check.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ReliefGateConfig {
@@ -97,7 +97,8 @@ impl ReliefGateConfig {
 }
 
 /// What stereo says about a boulder's mask at `depth_m`: `Ok` when it stands out of the
-/// ground, sits on it and is no part of a structure (see the module documentation);
+/// ground, sits on it, is no part of a structure and is not a shadow (see the module
+/// documentation);
 /// a mask with fewer than `min_samples` heights is not judged. `heights` is on the grid
 /// of `disparity`; `geometric` gives the base, structure and shadow limits; `left` is the
 /// image the mask is in.
