@@ -6,7 +6,10 @@ mod common;
 use common::{assert_success, segloc};
 
 use segloc::perception::render::{render_stereo, SyntheticScene};
-use segloc::perception::{FrontEnd, FrontEndConfig, GeometricSegmenter, StereoCamera};
+use segloc::perception::{
+    FrontEnd, FrontEndConfig, GeometricSegmenter, Mask, PerceptionError, Rejection, SegmentInput,
+    Segmenter, StereoCamera,
+};
 
 fn front_end(config: FrontEndConfig) -> FrontEnd {
     let segmenter = GeometricSegmenter::new(config.geometric.clone());
@@ -90,6 +93,69 @@ fn bare_ground_gives_no_boulders() {
     let mut fe = front_end(config);
     let result = fe.process(&pair.left, &pair.right).unwrap();
     assert!(result.boulders.is_empty(), "{:?}", result.boulders);
+}
+
+/// An image-only segmenter that returns fixed masks (as the learned one would).
+struct FixedMasks(Vec<Mask>);
+
+impl Segmenter for FixedMasks {
+    fn name(&self) -> &'static str {
+        "fixed"
+    }
+
+    fn segment(&mut self, _: &SegmentInput<'_>) -> Result<Vec<Mask>, PerceptionError> {
+        Ok(self.0.clone())
+    }
+}
+
+/// The pixels of the left image that see object `id` (2 + k: sphere k; 1: ground) within
+/// `radius` pixels of `(u, v)`.
+fn pixels_of(
+    pair: &segloc::perception::render::RenderedPair,
+    width: usize,
+    id: u16,
+    (u, v): (f64, f64),
+    radius: f64,
+) -> Vec<(usize, usize)> {
+    (0..pair.object.len())
+        .map(|i| (i % width, i / width))
+        .filter(|&(x, y)| {
+            pair.object[y * width + x] == id && (x as f64 - u).hypot(y as f64 - v) <= radius
+        })
+        .collect()
+}
+
+/// An image-only segmenter's mask on a rock is kept, its mask on bare ground is rejected as
+/// flat by the front end's stereo check, and without the check both become boulders.
+#[test]
+fn stereo_check_keeps_the_rock_and_rejects_the_ground_patch() {
+    let camera = StereoCamera::ipex();
+    let mut scene = SyntheticScene::default();
+    let rock = scene.resting_sphere(4.0, -0.5, 0.12);
+    scene.spheres.push(rock);
+    let pair = render_stereo(&scene, &camera);
+    let (u, v) = camera.project(&rock.center).unwrap();
+    let on_rock = Mask::from_pixels(&pixels_of(&pair, camera.width, 2, (u, v), 60.0), 0.9);
+    // a patch of the ground as wide as the rock, at the same range, a metre to the right
+    let ground = scene.resting_sphere(4.0, 0.5, 0.12).center;
+    let (gu, gv) = camera.project(&ground).unwrap();
+    let r_px = 0.12 * camera.fx / 4.0;
+    let on_ground = Mask::from_pixels(
+        &pixels_of(&pair, camera.width, 1, (gu, gv + r_px), r_px),
+        0.9,
+    );
+    let masks = vec![on_rock.unwrap(), on_ground.unwrap()];
+    let run = |config: FrontEndConfig| {
+        let mut fe = FrontEnd::new(config, Box::new(FixedMasks(masks.clone()))).unwrap();
+        fe.process(&pair.left, &pair.right).unwrap().verdicts
+    };
+    let checked = run(FrontEndConfig::default());
+    assert!(checked[0].is_ok(), "the rock: {:?}", checked[0]);
+    assert_eq!(checked[1], Err(Rejection::Flat), "the ground patch");
+    let mut config = FrontEndConfig::default();
+    config.relief.enabled = false;
+    let unchecked = run(config);
+    assert!(unchecked.iter().all(|v| v.is_ok()), "{unchecked:?}");
 }
 
 /// A two-frame `.lac` of a rendered scene, played back by `segloc detect --lac`, gives

@@ -139,7 +139,10 @@ pub fn check_mask(
 /// Rule 4: mostly in hard shadow, without a sunlit face.
 fn in_shadow(mask: &Mask, left: &GrayImage, geometric: &GeometricConfig) -> bool {
     let (mut n, mut dark, mut lit) = (0usize, 0usize, 0usize);
-    for (x, y) in mask.pixels().filter(|&(x, y)| x < left.width && y < left.height) {
+    for (x, y) in mask
+        .pixels()
+        .filter(|&(x, y)| x < left.width && y < left.height)
+    {
         let v = left.get(x, y);
         n += 1;
         dark += usize::from(v < geometric.shadow_level);
