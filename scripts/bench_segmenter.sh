@@ -72,7 +72,7 @@ print(f"Learned front end (stereo, network, boulders with the stereo check), 2 t
       f"(min {oneoff[0]:.0f}, max {oneoff[-1]:.0f}; {sum(t <= 100 for t in oneoff)} of {len(oneoff)} ≤ 100 ms); "
       f"steady `segloc bench detect --segmenter learned`: median {ms['total']['median']:.1f} ms, p90 {ms['total']['p90']:.1f} "
       f"(stereo {ms['stereo']['median']:.1f}, network + decoder {ms['segment']['median']:.1f}, boulders {ms['boulders']['median']:.1f}); "
-      f"first frame of that process {steady['first_frame_ms']:.0f} ms. Target ≤ 100 ms both ways.\n")
+      f"first frame of that process {steady['first_frame_ms']['total_ms']:.0f} ms (stereo {steady['first_frame_ms']['stereo_ms']:.0f}). Target ≤ 100 ms both ways.\n")
 print("Command: `scripts/bench_segmenter.sh` (real pairs: `segloc eval segmenter --labels "
       f"{labels} --segmenter S`; rendered: `scripts/eval_rendered_segmenter.py`).")
 PY
