@@ -11,7 +11,7 @@
 //! 2. **base**: a low quantile is within the geometric segmenter's `max_base_height_m` of
 //!    the ground: boulders do not float ([`Rejection::Floating`]);
 //! 3. **structure**: nothing higher than its `max_height_m` stands straight above the mask
-//!    at its depth (the geometric segmenter's own rule, [`under_structure`]):
+//!    at its depth (the geometric segmenter's own rule, `geometric::under_structure`):
 //!    [`Rejection::Structure`];
 //! 4. **shadow**: more than the geometric segmenter's `max_shadow_fraction` of the mask's
 //!    pixels are in hard shadow and fewer than its `min_sunlit_fraction` are sunlit (its own
