@@ -120,8 +120,8 @@ pub fn diagnose_frame(
         }
         errors.sort_by(f64::total_cmp);
         let gray = |p: usize| frame.left.data[sample(p)];
-        let frac =
-            |keep: &dyn Fn(u8) -> bool| mine.iter().filter(|&&p| keep(gray(p))).count() as f64 / n;
+        let (shadow_fraction, lit_fraction) =
+            geometric.shade_fractions(mine.iter().map(|&p| gray(p)));
         let regions_cover = region_overlaps(mine, &region_of);
         let main = regions_cover.first().copied();
         let (region_cover, region_purity, region_other_rocks) =
@@ -155,8 +155,8 @@ pub fn diagnose_frame(
             peak_height_m: peak,
             seed_threshold_m: threshold,
             seed_pixels: seeds,
-            shadow_fraction: frac(&|v| v < geometric.shadow_level),
-            lit_fraction: frac(&|v| v > geometric.sunlit_level),
+            shadow_fraction,
+            lit_fraction,
             region_cover,
             region_purity,
             region_other_rocks,

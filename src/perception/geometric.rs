@@ -103,6 +103,26 @@ impl GeometricConfig {
     pub fn threshold_at(&self, base: f64, z_m: f64) -> f64 {
         base + self.height_per_range * z_m + self.height_per_range_sq * z_m * z_m
     }
+
+    /// The fractions of `grey` levels in hard shadow (below `shadow_level`) and sunlit
+    /// (above `sunlit_level`); zeros when there are none.
+    pub fn shade_fractions(&self, grey: impl Iterator<Item = u8>) -> (f64, f64) {
+        let (mut n, mut dark, mut lit) = (0usize, 0usize, 0usize);
+        for v in grey {
+            n += 1;
+            dark += usize::from(v < self.shadow_level);
+            lit += usize::from(v > self.sunlit_level);
+        }
+        let n = n.max(1) as f64;
+        (dark as f64 / n, lit as f64 / n)
+    }
+
+    /// The shadow rule: more than `max_shadow_fraction` in hard shadow and less than
+    /// `min_sunlit_fraction` sunlit (fractions from [`Self::shade_fractions`]) is a shadow,
+    /// where stereo matches only noise, not a rock whose front is in its own shadow.
+    pub fn is_shadow(&self, shadow: f64, lit: f64) -> bool {
+        shadow > self.max_shadow_fraction && lit < self.min_sunlit_fraction
+    }
 }
 
 /// The training-free geometric segmenter (see the module documentation).
@@ -375,11 +395,7 @@ impl Scene<'_> {
         let intensity = &self.intensity;
         let peak = region.iter().map(|&p| hag[p]).fold(f32::MIN, f32::max) as f64;
         let base = region.iter().map(|&p| hag[p]).fold(f32::MAX, f32::min) as f64;
-        let fraction = |keep: &dyn Fn(u8) -> bool| {
-            region.iter().filter(|&&p| keep(intensity[p])).count() as f64 / region.len() as f64
-        };
-        let shadow = fraction(&|v| v < config.shadow_level);
-        let lit = fraction(&|v| v > config.sunlit_level);
+        let (shadow, lit) = config.shade_fractions(region.iter().map(|&p| intensity[p]));
         let (w, data, camera) = (
             self.disparity.width,
             &self.disparity.data,
@@ -396,7 +412,7 @@ impl Scene<'_> {
         {
             return Err(RegionDrop::Structure);
         }
-        if shadow > config.max_shadow_fraction && lit < config.min_sunlit_fraction {
+        if config.is_shadow(shadow, lit) {
             return Err(RegionDrop::Shadow);
         }
         // sunlit face: a clearly brighter part than the region's median

@@ -136,20 +136,15 @@ pub fn check_mask(
     Ok(())
 }
 
-/// Rule 4: mostly in hard shadow, without a sunlit face.
+/// Rule 4: mostly in hard shadow, without a sunlit face (the geometric segmenter's rule on
+/// the mask's grey levels).
 fn in_shadow(mask: &Mask, left: &GrayImage, geometric: &GeometricConfig) -> bool {
-    let (mut n, mut dark, mut lit) = (0usize, 0usize, 0usize);
-    for (x, y) in mask
+    let grey = mask
         .pixels()
         .filter(|&(x, y)| x < left.width && y < left.height)
-    {
-        let v = left.get(x, y);
-        n += 1;
-        dark += usize::from(v < geometric.shadow_level);
-        lit += usize::from(v > geometric.sunlit_level);
-    }
-    let fraction = |k: usize| k as f64 / n.max(1) as f64;
-    fraction(dark) > geometric.max_shadow_fraction && fraction(lit) < geometric.min_sunlit_fraction
+        .map(|(x, y)| left.get(x, y));
+    let (shadow, lit) = geometric.shade_fractions(grey);
+    geometric.is_shadow(shadow, lit)
 }
 
 /// The disparity-grid cells (`scale` image pixels a side) holding `mask`'s pixels, each
