@@ -12,7 +12,7 @@ use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
 use super::relocalization::accepted_answer;
 use super::report::{AttemptRecord, AttemptStatus, Confirmation, Measurement};
-use super::submap::{frame_nearest, landmark_positions};
+use super::submap::{frame_nearest, frame_observing, landmark_positions, ANCHOR_SLACK_M};
 use super::trajectory::TrajectoryGraph;
 use super::view_bias::ViewBiasCalibration;
 use super::{LocalizerConfig, LocalizerError};
@@ -119,13 +119,18 @@ struct Closure {
     information: nalgebra::Matrix6<f64>,
     /// Index of its record among the attempts.
     attempt: usize,
+    /// Time of the last frame of its submap, s: closures of the same period share their
+    /// submap, so they cannot confirm each other.
+    submap_t: f64,
 }
 
 /// The mapping session's consistency gate, as against a prior map ([`super::fix_gate`]):
 /// a closure enters the graph when the pose it implies for its recent frame agrees with the
 /// graph's estimate (a small correction), or with the one implied by the previous closure
-/// carried over by the graph's relative motion (two independent submaps asking for the
-/// same correction).
+/// of an earlier period carried over by the graph's relative motion (two independent
+/// submaps asking for the same correction). The closures of one period against the start
+/// map and the earlier map share their submap, and with it the submap's own bend, so they
+/// never confirm each other.
 #[derive(Default)]
 struct ClosureGate {
     pending: Option<Closure>,
@@ -182,7 +187,7 @@ impl ClosureGate {
             self.pending = None;
             return vec![c];
         }
-        if let Some(p) = self.pending.take() {
+        if let Some(p) = self.pending.take().filter(|p| p.submap_t < c.submap_t) {
             let carried = implied(&p) * pose(p.k).inverse() * pose(c.k);
             if agrees(&carried, &implied(&c), &tolerance) {
                 return vec![p, c];
@@ -232,18 +237,15 @@ fn close_loop(
     attempts: &mut Vec<AttemptRecord>,
 ) -> Option<Closure> {
     let odometry = graph.poses_in_prior();
-    let old = fuse_detections(
-        &log.detections_with_poses(&odometry, reference.frames.clone(), "old", "odom"),
-        &reference.fusion,
-    );
+    let old_detections =
+        log.detections_with_poses(&odometry, reference.frames.clone(), "old", "odom");
+    let old = fuse_detections(&old_detections, &reference.fusion);
     let query_fusion = FusionConfig {
         min_observations: config.fusion.min_observations,
         ..reference.fusion.clone()
     };
-    let query = fuse_detections(
-        &log.detections_with_poses(&odometry, recent.clone(), "recent", "odom"),
-        &query_fusion,
-    );
+    let query_detections = log.detections_with_poses(&odometry, recent.clone(), "recent", "odom");
+    let query = fuse_detections(&query_detections, &query_fusion);
     let last = recent.end.saturating_sub(1);
     let t = log.frames.get(last).map_or(0.0, |f| f.t);
     let mut record = AttemptRecord::pending(t, last, query.len());
@@ -258,10 +260,25 @@ fn close_loop(
     // nearest the matched landmarks of the submap (least drift relative to them)
     let matched_old = landmark_positions(&old, reloc.inliers.iter().map(|(p, _)| *p));
     let matched_new = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
-    let j = reference
-        .fixed_frame
-        .unwrap_or_else(|| frame_nearest(&odometry, reference.frames.clone(), &matched_old));
-    let k = frame_nearest(&odometry, recent, &matched_new);
+    let radius = query_fusion.cluster_radius_m;
+    let j = reference.fixed_frame.unwrap_or_else(|| {
+        frame_observing(
+            &odometry,
+            &old_detections,
+            &matched_old,
+            radius,
+            ANCHOR_SLACK_M,
+        )
+        .unwrap_or_else(|| frame_nearest(&odometry, reference.frames.clone(), &matched_old))
+    });
+    let k = frame_observing(
+        &odometry,
+        &query_detections,
+        &matched_new,
+        radius,
+        ANCHOR_SLACK_M,
+    )
+    .unwrap_or_else(|| frame_nearest(&odometry, recent, &matched_new));
     let j_from_k = odometry[j].inverse() * old_from_recent * odometry[k];
     record.status = AttemptStatus::Unconfirmed(Confirmation::NextLoopClosure);
     record.measurement = Some(Measurement::Closure { j, k, j_from_k });
@@ -275,5 +292,50 @@ fn close_loop(
         j_from_k,
         information,
         attempt: attempts.len() - 1,
+        submap_t: t,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix6, Vector3};
+    use segloc_maps::frames::StreamFrame;
+
+    /// A graph of 20 frames standing still at the odometry's origin.
+    fn still_graph(config: &LocalizerConfig) -> TrajectoryGraph {
+        let mut log = FrameLog::default();
+        for k in 0..20 {
+            log.push(&StreamFrame::new(k as f64, Isometry3::identity()));
+        }
+        let mut graph = TrajectoryGraph::new();
+        graph.extend(&log, config).unwrap();
+        graph
+    }
+
+    /// A closure of frame 15 on frame 2 asking for a 1 m correction (the graph says 0).
+    fn closure(attempt: usize, submap_t: f64) -> Closure {
+        Closure {
+            j: 2,
+            k: 15,
+            j_from_k: Isometry3::new(Vector3::new(1.0, 0.0, 0.0), Vector3::zeros()),
+            information: Matrix6::identity(),
+            attempt,
+            submap_t,
+        }
+    }
+
+    #[test]
+    fn closures_of_one_submap_do_not_confirm_each_other() {
+        let config = LocalizerConfig::default();
+        let graph = still_graph(&config);
+        // the start map's and the earlier map's closures of the same period
+        let mut gate = ClosureGate::default();
+        assert!(gate.admit(closure(0, 80.0), &graph, &config).is_empty());
+        assert!(gate.admit(closure(1, 80.0), &graph, &config).is_empty());
+        // the next period's submap asks for the same correction: it confirms the pending one
+        let admitted = gate.admit(closure(2, 90.0), &graph, &config);
+        let ids: Vec<usize> = admitted.iter().map(|c| c.attempt).collect();
+        assert_eq!(ids, vec![1, 2]);
+    }
 }

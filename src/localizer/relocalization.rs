@@ -6,7 +6,7 @@
 use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
 use super::report::{AttemptRecord, AttemptRefusal, AttemptStatus, Confirmation, Measurement};
-use super::submap::{frame_nearest, landmark_positions};
+use super::submap::{frame_nearest, frame_observing, landmark_positions, ANCHOR_SLACK_M};
 use super::trajectory::TrajectoryGraph;
 use super::LocalizerConfig;
 use crate::graph::se3;
@@ -173,9 +173,16 @@ pub fn attempt(
         attempts.push(record);
         return None;
     }
-    // anchor: the frame nearest the matched landmarks (least drift relative to them)
+    // anchor: a frame that saw the matched landmarks, near them (least drift relative to them)
     let matched = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
-    let k = frame_nearest(&odometry, first..k + 1, &matched);
+    let k = frame_observing(
+        &odometry,
+        &set,
+        &matched,
+        fusion.cluster_radius_m,
+        ANCHOR_SLACK_M,
+    )
+    .unwrap_or_else(|| frame_nearest(&odometry, first..k + 1, &matched));
     let odom_from_rover = odometry[k];
     let prior_from_rover = prior_from_odom * odom_from_rover;
     record.status = AttemptStatus::Unconfirmed(Confirmation::NextRelocalization);
