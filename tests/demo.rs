@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::segloc;
+use common::{assert_refused, segloc};
 
 #[test]
 fn demo_runs_the_mission_and_writes_report_pictures_and_recording() {
@@ -86,12 +86,8 @@ fn demo_refuses_a_bad_mission_config_naming_the_file() {
             .arg(dir.path().join("demo"))
             .output()
             .unwrap();
-        assert_eq!(output.status.code(), Some(2), "{output:?}");
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(
-            stderr.contains("bad.toml") && stderr.contains(field),
-            "{stderr}"
-        );
+        assert_refused(&output, "bad.toml");
+        assert_refused(&output, field);
         assert!(!dir.path().join("demo").exists());
     }
 }

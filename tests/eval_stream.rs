@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{assert_success, segloc};
+use common::{assert_refused, assert_success, segloc};
 
 /// Run `eval stream --json` on `pairs` (e.g. `3:5,5:3`) with the default drift.
 fn eval_stream(pairs: &str) -> Option<serde_json::Value> {
@@ -79,7 +79,5 @@ fn missing_data_is_named() {
         .arg(dir.path())
         .output()
         .expect("segloc runs");
-    assert_eq!(out.status.code(), Some(2));
-    let stderr = common::stderr_of(&out);
-    assert!(stderr.contains("traverse_3.csv"), "{stderr}");
+    assert_refused(&out, "traverse_3.csv");
 }

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{assert_success, segloc};
+use common::{assert_refused, assert_success, segloc};
 use segloc_maps::{grid_to_string, read_grid_csv, LacGrid};
 
 fn small_truth() -> LacGrid {
@@ -69,9 +69,7 @@ fn malformed_grid_exits_2_naming_file_and_line() {
         .arg(dir.path().join("t.csv"))
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("bad.csv:3"), "{err}");
+    assert_refused(&out, "bad.csv:3");
     // mismatched sizes
     std::fs::write(
         dir.path().join("big.csv"),
@@ -85,8 +83,7 @@ fn malformed_grid_exits_2_naming_file_and_line() {
         .arg(dir.path().join("t.csv"))
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("grids differ"));
+    assert_refused(&out, "grids differ");
     // a missing file
     let out = segloc()
         .args(["grid", "score", "/nonexistent/g.csv", "--groundtruth"])
@@ -163,12 +160,8 @@ fn rocks_from_a_small_traverse() {
         ),
     ] {
         let out = rocks_with(config.as_bytes());
-        assert_eq!(out.status.code(), Some(2));
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            err.contains("evidence.toml") && err.contains(field),
-            "{err}"
-        );
+        assert_refused(&out, "evidence.toml");
+        assert_refused(&out, field);
         assert_eq!(std::fs::read_to_string(&g).unwrap(), text);
     }
     // a malformed traverse: exit 2 naming the file and line
@@ -184,8 +177,7 @@ fn rocks_from_a_small_traverse() {
         .arg(&g)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("traverse_1.csv:2"));
+    assert_refused(&out, "traverse_1.csv:2");
 }
 
 #[test]

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{assert_success, segloc, stderr_of};
+use common::{assert_refused, assert_success, segloc, stderr_of};
 use std::path::{Path, PathBuf};
 
 /// Positions of a TUM file by time (rounded to the microsecond).
@@ -144,13 +144,10 @@ fn refuses(text: &str, expect: &str) {
         .arg(&tum)
         .output()
         .unwrap();
-    let err = stderr_of(&out);
-    assert_eq!(out.status.code(), Some(2), "{text}: {err}");
-    assert!(
-        err.contains("drive.jsonl") && err.contains(expect),
-        "{text}: {err}"
-    );
+    assert_refused(&out, "drive.jsonl");
+    assert_refused(&out, expect);
     assert!(!tum.exists());
+    let err = stderr_of(&out);
     assert!(!err.contains("panicked"), "{err}");
 }
 
@@ -184,12 +181,7 @@ fn a_prior_that_fails_to_load_is_named() {
         .arg(&tum)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr_of(&out).contains("prior.map.json"),
-        "{}",
-        stderr_of(&out)
-    );
+    assert_refused(&out, "prior.map.json");
     assert!(!tum.exists());
 }
 
@@ -216,10 +208,6 @@ fn the_localizer_config_prints_and_loads() {
         .arg(&config)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = stderr_of(&out);
-    assert!(
-        err.contains("localizer.toml") && err.contains("gate.yaw_deg"),
-        "{err}"
-    );
+    assert_refused(&out, "localizer.toml");
+    assert_refused(&out, "gate.yaw_deg");
 }

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{assert_success, segloc};
+use common::{assert_refused, assert_success, segloc};
 use segloc::eval::merge::{evaluate_merge, MergeEvalOptions};
 use segloc::landmarks::view_bias::{
     estimate_view_bias, LUNARLOC_VIEW_BIAS_M, LUNARLOC_VIEW_BIAS_SIGMA_M,
@@ -111,8 +111,7 @@ fn a_bad_input_stops_the_merge_before_anything_is_written() {
         .arg(&bad)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("bad.csv:2"));
+    assert_refused(&out, "bad.csv:2");
     assert!(!out_path.exists());
 }
 

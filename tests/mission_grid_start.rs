@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{segloc, stderr_of};
+use common::{assert_refused, segloc, stderr_of};
 
 #[test]
 fn lost_session_one_is_placed_by_the_grid() {
@@ -74,9 +74,7 @@ fn bad_lost_start_config_is_bad_input_naming_the_toml_path() {
             .arg(&path)
             .output()
             .unwrap();
-        assert_eq!(output.status.code(), Some(2), "{text}");
-        let err = stderr_of(&output);
-        assert!(err.contains(expected), "{text}: {err}");
-        assert!(err.contains("mission.toml"), "{err}");
+        assert_refused(&output, expected);
+        assert_refused(&output, "mission.toml");
     }
 }

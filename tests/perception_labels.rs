@@ -8,7 +8,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use common::segloc;
+use common::{assert_refused, segloc};
 use segloc::perception::onnx::{runtime_available, shipped_model, LearnedSegmenter};
 use segloc::perception::{read_gray_png, FrontEnd, FrontEndConfig};
 
@@ -146,9 +146,7 @@ fn learned_segmenter_bad_models_exit_2_naming_the_problem() {
             .arg(&model)
             .output()
             .unwrap();
-        let err = common::stderr_of(&out);
-        assert_eq!(out.status.code(), Some(2), "{err}");
-        assert!(err.contains(expected), "{model:?}: {err}");
+        assert_refused(&out, expected);
     }
     let out = segloc()
         .args(["detect", "--segmenter", "learned", "--left"])
@@ -158,9 +156,7 @@ fn learned_segmenter_bad_models_exit_2_naming_the_problem() {
         .env("SEGLOC_MODELS", &dir)
         .output()
         .unwrap();
-    let err = common::stderr_of(&out);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("SEGLOC_MODELS"), "{err}");
+    assert_refused(&out, "SEGLOC_MODELS");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{assert_success, segloc};
+use common::{assert_refused, assert_success, segloc};
 
 use segloc::perception::render::{render_stereo, SyntheticScene};
 use segloc::perception::{
@@ -231,6 +231,5 @@ fn lac_playback_writes_detections_that_map_build_reads() {
         .arg(tmp.path().join("x.csv"))
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("cut.lac"));
+    assert_refused(&out, "cut.lac");
 }
