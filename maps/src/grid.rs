@@ -215,28 +215,41 @@ struct Row {
 /// Parse the text of a grid CSV; `source` names it in errors.
 pub fn parse_grid_csv(text: &str, source: &Path) -> Result<LacGrid, MapError> {
     let mut lines = text.lines().enumerate();
-    match lines.next() {
-        Some((_, h)) if header_matches(h, GRID_HEADER) => {}
-        Some((_, h)) => {
-            return Err(MapError::parse_at(
-                source,
-                1,
-                format!(
-                    "expected the grid header '{GRID_HEADER}', got '{}'",
-                    snippet(h, 60)
-                ),
-            ))
-        }
-        None => {
-            return Err(MapError::parse(
-                source,
-                format!("the file is empty; expected the grid header '{GRID_HEADER}'"),
-            ))
-        }
+    check_grid_header(lines.next().map(|(_, h)| h), source)?;
+    let rows = parse_grid_rows(lines, text.len(), source)?;
+    let n = grid_side(&rows, source)?;
+    let cell_size_m = grid_cell_size(&rows, n, source)?;
+    fill_grid(rows, n, cell_size_m, source)
+}
+
+/// Check the first line `header` (None: the text is empty) is the grid header.
+fn check_grid_header(header: Option<&str>, source: &Path) -> Result<(), MapError> {
+    match header {
+        Some(h) if header_matches(h, GRID_HEADER) => Ok(()),
+        Some(h) => Err(MapError::parse_at(
+            source,
+            1,
+            format!(
+                "expected the grid header '{GRID_HEADER}', got '{}'",
+                snippet(h, 60)
+            ),
+        )),
+        None => Err(MapError::parse(
+            source,
+            format!("the file is empty; expected the grid header '{GRID_HEADER}'"),
+        )),
     }
+}
+
+/// Parse the rows after the header (`lines` numbered from 0, of a text `text_len` bytes
+/// long), skipping blank lines.
+fn parse_grid_rows<'t>(
+    lines: impl Iterator<Item = (usize, &'t str)>,
+    text_len: usize,
+    source: &Path,
+) -> Result<Vec<Row>, MapError> {
     // a row takes at least 12 bytes (`0,0,0,0,,0\n`): reserve for the rows the text can hold
-    let mut rows =
-        Vec::with_capacity((text.len() / 12).min(LAC_CELLS_PER_SIDE * LAC_CELLS_PER_SIDE));
+    let mut rows = Vec::with_capacity((text_len / 12).min(LAC_CELLS_PER_SIDE * LAC_CELLS_PER_SIDE));
     for (index, line) in lines {
         if line.trim().is_empty() {
             continue;
@@ -245,6 +258,12 @@ pub fn parse_grid_csv(text: &str, source: &Path) -> Result<LacGrid, MapError> {
             .map_err(|m| MapError::parse_at(source, index + 1, m))?;
         rows.push(row);
     }
+    Ok(rows)
+}
+
+/// Cells per side of the grid `rows` describe (one more than the largest index); an error
+/// unless there is exactly one row per cell.
+fn grid_side(rows: &[Row], source: &Path) -> Result<usize, MapError> {
     let Some(max_ij) = rows.iter().map(|r| r.i.max(r.j)).max() else {
         return Err(MapError::parse(source, "the grid has no cells"));
     };
@@ -259,6 +278,12 @@ pub fn parse_grid_csv(text: &str, source: &Path) -> Result<LacGrid, MapError> {
             ),
         });
     }
+    Ok(n)
+}
+
+/// Cell size of an `n` × `n` grid centred on the origin, from the centre of the row
+/// furthest from the centre in i, snapped to a round size.
+fn grid_cell_size(rows: &[Row], n: usize, source: &Path) -> Result<f64, MapError> {
     // cell size from the row furthest from the centre in i
     let far = rows
         .iter()
@@ -281,7 +306,17 @@ pub fn parse_grid_csv(text: &str, source: &Path) -> Result<LacGrid, MapError> {
         });
     }
     // snap to a round size (0.15 m is not exact in binary; the file has a few decimals)
-    let cell_size_m = (cell_size_m * 1e9).round() / 1e9;
+    Ok((cell_size_m * 1e9).round() / 1e9)
+}
+
+/// The `n` × `n` grid of `cell_size_m` cells holding `rows`; an error for a row centred
+/// off its cell or a cell appearing twice.
+fn fill_grid(
+    rows: Vec<Row>,
+    n: usize,
+    cell_size_m: f64,
+    source: &Path,
+) -> Result<LacGrid, MapError> {
     let mut grid = LacGrid::new(n, cell_size_m);
     let mut seen = vec![false; n * n];
     let tol = 1e-4 * cell_size_m.max(1e-3) + 1e-6;

@@ -12,6 +12,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use nalgebra::{Isometry3, Vector3};
 use segloc::mission::mapping_session::map_session;
 use segloc::mission::{drive_sessions, MissionConfig, Silent};
 use segloc::perception::lac::{ImageKind, Imu, LacFrame, LacWriter, FRONT_LEFT, FRONT_RIGHT};
@@ -193,9 +194,6 @@ fn write_frames(
     log: &SessionLog,
     dir: &Path,
 ) -> Result<()> {
-    let mut truth = Vec::new();
-    let mut rover_truth = Vec::new();
-    let mut imu = String::from("frame,time_s,gravity_x,gravity_y,gravity_z,gyro_x,gyro_y,gyro_z\n");
     let rendered: Vec<(usize, &TickRecord)> =
         log.ticks.iter().enumerate().step_by(args.every).collect();
     let poses: Vec<_> = rendered
@@ -203,27 +201,73 @@ fn write_frames(
         .map(|(_, r)| (r.time_s, r.world_from_rover))
         .collect();
     let gyro = gyro_rates(&poses, &GyroConfig::default(), gyro_seed(args));
-    let mut frames_json = Vec::new();
-    let mut lac = args.lac.as_ref().map(|_| {
-        let mut meta = toml::Table::new();
-        meta.insert("source".into(), "segloc sim render".into());
-        meta.insert("seed".into(), (args.seed as i64).into());
-        LacWriter::new(meta, toml::Table::new())
-    });
-    let mut render_ms = Vec::new();
+    let mut out = FrameOutputs::new(args);
     for ((tick, record), w) in rendered.into_iter().zip(gyro) {
         let frame = renderer.render_stereo(&record.world_from_rover, tick as u64);
-        render_ms.push(frame.render_ms);
+        out.render_ms.push(frame.render_ms);
         write_frame_images(dir, tick, &frame)?;
-        truth.push((record.time_s, frame.world_from_left));
-        rover_truth.push((record.time_s, record.world_from_rover));
+        out.add(tick, record, w, frame);
+    }
+    out.write_truth(dir, moon)?;
+    write_text(
+        &dir.join("calibration.json"),
+        &serde_json::to_string_pretty(&calibration(args, renderer, log.ticks.len()))?,
+    )?;
+    if let (Some(path), Some(writer)) = (&args.lac, &out.lac) {
+        let bytes = writer.to_bytes()?;
+        segloc_maps::write_atomic(path, &bytes)?;
+    }
+    report_render_times(args, renderer, out.render_ms);
+    Ok(())
+}
+
+/// What the rendered frames leave besides their images, gathered frame by frame.
+struct FrameOutputs {
+    /// Time and `world_from_left` of each frame.
+    truth: Vec<(f64, Isometry3<f64>)>,
+    /// Time and `world_from_rover` of each frame.
+    rover_truth: Vec<(f64, Isometry3<f64>)>,
+    /// The text of `imu.csv`.
+    imu: String,
+    /// Each frame's entry of `rocks.json`.
+    frames_json: Vec<serde_json::Value>,
+    /// The `.lac` recording (with `--lac`).
+    lac: Option<LacWriter>,
+    /// Each pair's rendering time, milliseconds.
+    render_ms: Vec<f64>,
+}
+
+impl FrameOutputs {
+    /// Nothing rendered yet; a `.lac` recording when `args` asks for one.
+    fn new(args: &RenderArgs) -> Self {
+        FrameOutputs {
+            truth: Vec::new(),
+            rover_truth: Vec::new(),
+            imu: String::from("frame,time_s,gravity_x,gravity_y,gravity_z,gyro_x,gyro_y,gyro_z\n"),
+            frames_json: Vec::new(),
+            lac: args.lac.as_ref().map(|_| {
+                let mut meta = toml::Table::new();
+                meta.insert("source".into(), "segloc sim render".into());
+                meta.insert("seed".into(), (args.seed as i64).into());
+                LacWriter::new(meta, toml::Table::new())
+            }),
+            render_ms: Vec::new(),
+        }
+    }
+
+    /// Add the frame rendered at `tick` (`record` its tick, `w` the gyro's reading).
+    fn add(&mut self, tick: usize, record: &TickRecord, w: Vector3<f64>, frame: StereoFrame) {
+        self.truth.push((record.time_s, frame.world_from_left));
+        self.rover_truth
+            .push((record.time_s, record.world_from_rover));
         let g = record.gravity_rover;
-        imu.push_str(&format!(
+        self.imu.push_str(&format!(
             "{tick},{:.3},{},{},{},{},{},{}\n",
             record.time_s, g.x, g.y, g.z, w.x, w.y, w.z
         ));
-        frames_json.push(json!({"frame": tick, "time_s": record.time_s, "visible": frame.rocks}));
-        if let Some(writer) = lac.as_mut() {
+        self.frames_json
+            .push(json!({"frame": tick, "time_s": record.time_s, "visible": frame.rocks}));
+        if let Some(writer) = self.lac.as_mut() {
             writer.add_frame(LacFrame {
                 frame: tick as u64,
                 time_s: Some(record.time_s),
@@ -237,32 +281,33 @@ fn write_frames(
             writer.add_image(FRONT_RIGHT, ImageKind::Grayscale, tick as u64, frame.right);
         }
     }
-    segloc_maps::write_tum(&dir.join("truth.tum"), &truth)?;
-    segloc_maps::write_tum(&dir.join("rover_truth.tum"), &rover_truth)?;
-    write_text(&dir.join("imu.csv"), &imu)?;
-    let rocks: Vec<_> = moon
-        .rocks()
-        .iter()
-        .enumerate()
-        .map(|(id, r)| {
-            json!({"id": id, "center_world": [r.center.x, r.center.y, r.center.z],
-                "radius_m": moon.rock_size_radius_m(id), "bounding_radius_m": r.radius_m,
-                "shape": r.shape})
-        })
-        .collect();
-    let rocks_json = json!({"rocks": rocks, "frames": frames_json});
-    write_text(
-        &dir.join("rocks.json"),
-        &serde_json::to_string(&rocks_json)?,
-    )?;
-    write_text(
-        &dir.join("calibration.json"),
-        &serde_json::to_string_pretty(&calibration(args, renderer, log.ticks.len()))?,
-    )?;
-    if let (Some(path), Some(writer)) = (&args.lac, &lac) {
-        let bytes = writer.to_bytes()?;
-        segloc_maps::write_atomic(path, &bytes)?;
+
+    /// Write `truth.tum`, `rover_truth.tum`, `imu.csv` and `rocks.json` (`moon`'s rocks and
+    /// the frames') into `dir`.
+    fn write_truth(&self, dir: &Path, moon: &Moon) -> Result<()> {
+        segloc_maps::write_tum(&dir.join("truth.tum"), &self.truth)?;
+        segloc_maps::write_tum(&dir.join("rover_truth.tum"), &self.rover_truth)?;
+        write_text(&dir.join("imu.csv"), &self.imu)?;
+        let rocks: Vec<_> = moon
+            .rocks()
+            .iter()
+            .enumerate()
+            .map(|(id, r)| {
+                json!({"id": id, "center_world": [r.center.x, r.center.y, r.center.z],
+                    "radius_m": moon.rock_size_radius_m(id), "bounding_radius_m": r.radius_m,
+                    "shape": r.shape})
+            })
+            .collect();
+        let rocks_json = json!({"rocks": rocks, "frames": self.frames_json});
+        write_text(
+            &dir.join("rocks.json"),
+            &serde_json::to_string(&rocks_json)?,
+        )
     }
+}
+
+/// Tell how many pairs were rendered (`render_ms` their times) and their median time.
+fn report_render_times(args: &RenderArgs, renderer: &Renderer, mut render_ms: Vec<f64>) {
     render_ms.sort_by(f64::total_cmp);
     let median = render_ms.get(render_ms.len() / 2).copied().unwrap_or(0.0);
     eprintln!(
@@ -275,7 +320,6 @@ fn write_frames(
         median,
         args.output.display()
     );
-    Ok(())
 }
 
 fn calibration(args: &RenderArgs, renderer: &Renderer, ticks: usize) -> serde_json::Value {

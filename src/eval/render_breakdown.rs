@@ -8,10 +8,10 @@
 //! along the pipeline ([`miss_cause`]). `segloc eval render --breakdown FILE` writes them.
 
 use crate::perception::geometric::{segment_geometric_regions, Region};
-use crate::perception::ground::height_above_ground;
+use crate::perception::ground::{height_above_ground, HeightMap};
 use crate::perception::{FrameResult, GeometricConfig, RegionDrop, SegmentInput};
 use crate::sim::moon::Moon;
-use crate::sim::render::scoring::FrameScore;
+use crate::sim::render::scoring::{FrameScore, RockOutcome};
 use crate::sim::render::StereoFrame;
 use serde::Serialize;
 
@@ -77,38 +77,115 @@ pub fn diagnose_frame(
     score: &FrameScore,
     geometric: &GeometricConfig,
 ) -> Vec<RockDiagnosis> {
-    let disparity = &result.disparity;
-    let (w, h, s) = (disparity.width, disparity.height, disparity.scale);
-    let full_w = frame.left.width;
-    let sample = |p: usize| ((p / w) * s + s / 2) * full_w + (p % w) * s + s / 2;
-    let heights = height_above_ground(disparity, &geometric.ground);
-    let input = SegmentInput {
-        left: &frame.left,
-        disparity,
-        camera: &disparity.camera,
-    };
-    let regions = segment_geometric_regions(&input, geometric);
-    let region_of = region_index(&regions, w * h);
-    let instance: Vec<u32> = (0..w * h).map(|p| frame.instance[sample(p)]).collect();
-    let pixels_of = pixels_by_instance(&instance);
-    let mut out = Vec::new();
-    for rock in score.rocks.iter().filter(|r| r.counted) {
-        let mine: &[usize] = pixels_of
-            .get(&(rock.id as u32 + 1))
-            .map_or(&[], Vec::as_slice);
-        let n = mine.len().max(1) as f64;
-        let truth = &moon.rocks()[rock.id];
-        let protrusion_m = truth.center.z + truth.shape.top_m(truth.radius_m)
-            - moon.height_at(truth.center.x, truth.center.y);
-        let threshold = geometric.threshold_at(geometric.seed_height_m, rock.range_m);
+    let grid = FrameGrid::new(frame, result, geometric);
+    score
+        .rocks
+        .iter()
+        .filter(|r| r.counted)
+        .map(|rock| diagnose_rock(moon, score, &grid, rock))
+        .collect()
+}
+
+/// A frame seen on the disparity map's grid: its pixels' rock instances, the estimated
+/// heights and the geometric segmenter's regions.
+struct FrameGrid<'a> {
+    /// The rendered frame.
+    frame: &'a StereoFrame,
+    /// The front end's output on it.
+    result: &'a FrameResult,
+    /// The segmenter's settings.
+    geometric: &'a GeometricConfig,
+    /// Width of the disparity map.
+    w: usize,
+    /// Left-image pixels per disparity-map pixel.
+    s: usize,
+    /// Width of the left image.
+    full_w: usize,
+    /// Estimated heights above the local ground (None: no ground estimate).
+    heights: Option<HeightMap>,
+    /// The geometric segmenter's regions.
+    regions: Vec<Region>,
+    /// Each grid pixel's region index (`u32::MAX`: none).
+    region_of: Vec<u32>,
+    /// Each grid pixel's rock instance (rock id + 1; 0: no rock).
+    instance: Vec<u32>,
+    /// Each instance's grid pixels.
+    pixels_of: std::collections::HashMap<u32, Vec<usize>>,
+}
+
+/// Stereo depth and estimated height on a rock's pixels.
+struct PixelStats {
+    /// Pixels with a valid disparity.
+    valid: usize,
+    /// Median |stereo depth − rendered depth| on them, metres (NaN without depth).
+    depth_error_m: f64,
+    /// Pixels above the seed threshold.
+    seeds: usize,
+    /// Highest estimated height above the local ground, metres (NaN: none).
+    peak: f64,
+}
+
+impl<'a> FrameGrid<'a> {
+    /// Segment `frame` as the front end did (`result`, `geometric`) and sample its rock
+    /// instances on the disparity map's grid.
+    fn new(
+        frame: &'a StereoFrame,
+        result: &'a FrameResult,
+        geometric: &'a GeometricConfig,
+    ) -> Self {
+        let disparity = &result.disparity;
+        let (w, h, s) = (disparity.width, disparity.height, disparity.scale);
+        let full_w = frame.left.width;
+        let heights = height_above_ground(disparity, &geometric.ground);
+        let input = SegmentInput {
+            left: &frame.left,
+            disparity,
+            camera: &disparity.camera,
+        };
+        let regions = segment_geometric_regions(&input, geometric);
+        let region_of = region_index(&regions, w * h);
+        let instance: Vec<u32> = (0..w * h)
+            .map(|p| frame.instance[grid_sample(w, s, full_w, p)])
+            .collect();
+        let pixels_of = pixels_by_instance(&instance);
+        FrameGrid {
+            frame,
+            result,
+            geometric,
+            w,
+            s,
+            full_w,
+            heights,
+            regions,
+            region_of,
+            instance,
+            pixels_of,
+        }
+    }
+
+    /// The left-image pixel at the centre of grid pixel `p`.
+    fn sample(&self, p: usize) -> usize {
+        grid_sample(self.w, self.s, self.full_w, p)
+    }
+
+    /// The grid pixels of rock `id`.
+    fn pixels_of_rock(&self, id: usize) -> &[usize] {
+        self.pixels_of
+            .get(&(id as u32 + 1))
+            .map_or(&[], Vec::as_slice)
+    }
+
+    /// Stereo depth against the rendered depth, and estimated height, on `mine`.
+    fn pixel_stats(&self, mine: &[usize]) -> PixelStats {
+        let (disparity, w, geometric) = (&self.result.disparity, self.w, self.geometric);
         let mut errors = Vec::new();
         let (mut valid, mut seeds, mut peak) = (0usize, 0usize, f64::NAN);
         for &p in mine {
             if let Some(z) = disparity.depth_m(p % w, p / w) {
                 valid += 1;
-                errors.push((z - frame.depth_m[sample(p)] as f64).abs());
+                errors.push((z - self.frame.depth_m[self.sample(p)] as f64).abs());
             }
-            if let Some(hm) = &heights {
+            if let Some(hm) = &self.heights {
                 let v = hm.above_ground_m[p] as f64;
                 if v.is_finite() {
                     peak = if peak.is_nan() { v } else { peak.max(v) };
@@ -119,60 +196,104 @@ pub fn diagnose_frame(
             }
         }
         errors.sort_by(f64::total_cmp);
-        let gray = |p: usize| frame.left.data[sample(p)];
-        let (shadow_fraction, lit_fraction) =
-            geometric.shade_fractions(mine.iter().map(|&p| gray(p)));
-        let regions_cover = region_overlaps(mine, &region_of);
-        let main = regions_cover.first().copied();
-        let (region_cover, region_purity, region_other_rocks) =
-            main.map_or((0.0, 0.0, 0.0), |(k, c)| {
-                let r = &regions[k];
-                let others = r
-                    .pixels
-                    .iter()
-                    .filter(|&&p| instance[p] != 0 && instance[p] != rock.id as u32 + 1)
-                    .count();
-                (
-                    c as f64 / n,
-                    c as f64 / r.pixels.len() as f64,
-                    others as f64 / r.pixels.len() as f64,
-                )
-            });
-        let (boulder_error_m, boulder_range_error_m, verdict) = main
-            .map(|(k, _)| main_verdict(k, &regions, result, frame, rock.id))
-            .unwrap_or((f64::NAN, f64::NAN, Verdict::NoMask));
-        let mut d = RockDiagnosis {
-            seed: score.seed,
-            sun_elevation_deg: score.sun_elevation_deg,
-            tick: score.tick,
-            id: rock.id,
-            size_m: rock.size_m,
-            range_m: rock.range_m,
-            protrusion_m,
-            pixels: mine.len(),
-            valid_fraction: valid as f64 / n,
+        PixelStats {
+            valid,
             depth_error_m: errors.get(errors.len() / 2).copied().unwrap_or(f64::NAN),
-            peak_height_m: peak,
-            seed_threshold_m: threshold,
-            seed_pixels: seeds,
-            shadow_fraction,
-            lit_fraction,
-            region_cover,
-            region_purity,
-            region_other_rocks,
-            regions_over_quarter: regions_cover
-                .iter()
-                .filter(|(_, c)| *c as f64 >= 0.25 * n)
-                .count(),
-            boulder_error_m,
-            boulder_range_error_m,
-            detected: rock.error_m.is_some(),
-            cause: String::new(),
-        };
-        d.cause = miss_cause(&d, &verdict, main.map(|(k, _)| &regions[k].outcome));
-        out.push(d);
+            seeds,
+            peak,
+        }
     }
-    out
+
+    /// Fractions of the shadowed and of the sunlit pixels among `mine`.
+    fn shade_fractions(&self, mine: &[usize]) -> (f64, f64) {
+        let gray = |p: usize| self.frame.left.data[self.sample(p)];
+        self.geometric
+            .shade_fractions(mine.iter().map(|&p| gray(p)))
+    }
+
+    /// Region `k` covering `c` of rock `id`'s `n` pixels: the fraction of the rock it
+    /// covers, the fraction of it on the rock, and the fraction of it on other rocks.
+    fn region_fractions(&self, k: usize, c: usize, n: f64, id: usize) -> (f64, f64, f64) {
+        let r = &self.regions[k];
+        let others = r
+            .pixels
+            .iter()
+            .filter(|&&p| self.instance[p] != 0 && self.instance[p] != id as u32 + 1)
+            .count();
+        (
+            c as f64 / n,
+            c as f64 / r.pixels.len() as f64,
+            others as f64 / r.pixels.len() as f64,
+        )
+    }
+}
+
+/// The left-image pixel at the centre of pixel `p` of a grid `w` wide, each of its pixels
+/// `s` × `s` pixels of a left image `full_w` wide.
+fn grid_sample(w: usize, s: usize, full_w: usize, p: usize) -> usize {
+    ((p / w) * s + s / 2) * full_w + (p % w) * s + s / 2
+}
+
+/// Top of rock `id` above the terrain under its centre, metres.
+fn protrusion_m(moon: &Moon, id: usize) -> f64 {
+    let truth = &moon.rocks()[id];
+    truth.center.z + truth.shape.top_m(truth.radius_m)
+        - moon.height_at(truth.center.x, truth.center.y)
+}
+
+/// The diagnosis of one counted rock of the frame `grid` holds (`score` its score).
+fn diagnose_rock(
+    moon: &Moon,
+    score: &FrameScore,
+    grid: &FrameGrid,
+    rock: &RockOutcome,
+) -> RockDiagnosis {
+    let mine = grid.pixels_of_rock(rock.id);
+    let n = mine.len().max(1) as f64;
+    let protrusion_m = protrusion_m(moon, rock.id);
+    let geometric = grid.geometric;
+    let threshold = geometric.threshold_at(geometric.seed_height_m, rock.range_m);
+    let stats = grid.pixel_stats(mine);
+    let (shadow_fraction, lit_fraction) = grid.shade_fractions(mine);
+    let regions_cover = region_overlaps(mine, &grid.region_of);
+    let main = regions_cover.first().copied();
+    let (region_cover, region_purity, region_other_rocks) = main
+        .map_or((0.0, 0.0, 0.0), |(k, c)| {
+            grid.region_fractions(k, c, n, rock.id)
+        });
+    let (boulder_error_m, boulder_range_error_m, verdict) = main
+        .map(|(k, _)| main_verdict(k, &grid.regions, grid.result, grid.frame, rock.id))
+        .unwrap_or((f64::NAN, f64::NAN, Verdict::NoMask));
+    let mut d = RockDiagnosis {
+        seed: score.seed,
+        sun_elevation_deg: score.sun_elevation_deg,
+        tick: score.tick,
+        id: rock.id,
+        size_m: rock.size_m,
+        range_m: rock.range_m,
+        protrusion_m,
+        pixels: mine.len(),
+        valid_fraction: stats.valid as f64 / n,
+        depth_error_m: stats.depth_error_m,
+        peak_height_m: stats.peak,
+        seed_threshold_m: threshold,
+        seed_pixels: stats.seeds,
+        shadow_fraction,
+        lit_fraction,
+        region_cover,
+        region_purity,
+        region_other_rocks,
+        regions_over_quarter: regions_cover
+            .iter()
+            .filter(|(_, c)| *c as f64 >= 0.25 * n)
+            .count(),
+        boulder_error_m,
+        boulder_range_error_m,
+        detected: rock.error_m.is_some(),
+        cause: String::new(),
+    };
+    d.cause = miss_cause(&d, &verdict, main.map(|(k, _)| &grid.regions[k].outcome));
+    d
 }
 
 /// For each of `pixels` pixels, the index of the region holding it (`u32::MAX`: none).

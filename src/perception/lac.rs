@@ -98,89 +98,17 @@ impl LacRecording {
 
     /// Read a recording from any byte stream; `path` names it in errors.
     pub fn from_reader(reader: impl Read, path: &Path) -> Result<LacRecording, PerceptionError> {
-        let bad = |m: String| PerceptionError::archive(path, m);
-        let mut archive = tar::Archive::new(flate2::read::GzDecoder::new(reader));
-        let mut members: BTreeMap<String, Vec<u8>> = BTreeMap::new();
-        let entries = archive
-            .entries()
-            .map_err(|e| bad(format!("not a gzip tarball: {e}")))?;
-        for entry in entries {
-            let mut entry = entry.map_err(|e| bad(format!("truncated or corrupt archive: {e}")))?;
-            if !entry.header().entry_type().is_file() {
-                continue;
-            }
-            let name = entry
-                .path()
-                .map_err(|e| bad(format!("bad member name: {e}")))?
-                .to_string_lossy()
-                .trim_start_matches("./")
-                .to_string();
-            // the size is the header's word: reserve at most 1 MiB up front (the data
-            // read decides the rest), and a member shorter than its header says is truncated
-            let size = entry.size();
-            let mut bytes = Vec::with_capacity(size.min(1 << 20) as usize);
-            entry
-                .read_to_end(&mut bytes)
-                .map_err(|e| bad(format!("{name}: truncated or corrupt: {e}")))?;
-            if bytes.len() as u64 != size {
-                return Err(bad(format!(
-                    "{name}: truncated: the header says {size} bytes, the archive holds {}",
-                    bytes.len()
-                )));
-            }
-            members.insert(name, bytes);
-        }
+        let mut members = read_members(reader, path)?;
         // some recordings wrap everything in one top-level folder
         let prefix = members
             .keys()
             .find(|k| k.ends_with("frames.csv") && !k.contains("cameras/"))
             .map(|k| k.trim_end_matches("frames.csv").to_string())
             .unwrap_or_default();
-        let take = |members: &mut BTreeMap<String, Vec<u8>>, name: &str| {
-            members.remove(&format!("{prefix}{name}"))
-        };
-        let text = |bytes: Vec<u8>, name: &str| {
-            String::from_utf8(bytes).map_err(|_| bad(format!("{name}: not UTF-8 text")))
-        };
-        let table = |members: &mut BTreeMap<String, Vec<u8>>, name: &str| {
-            let bytes = take(members, name).ok_or_else(|| bad(format!("missing {name}")))?;
-            text(bytes, name)?
-                .parse::<toml::Table>()
-                .map_err(|e| bad(format!("{name}: {e}")))
-        };
-        let metadata = table(&mut members, "metadata.toml")?;
-        let initial = table(&mut members, "initial.toml")?;
-        let frames_csv =
-            take(&mut members, "frames.csv").ok_or_else(|| bad("missing frames.csv".into()))?;
-        let frames = parse_frames(&text(frames_csv, "frames.csv")?)
-            .map_err(|m| bad(format!("frames.csv: {m}")))?;
-        let mut camera_frames = BTreeMap::new();
-        let mut images = BTreeMap::new();
-        for (name, bytes) in members {
-            let Some(rest) = name.strip_prefix(&format!("{prefix}cameras/")) else {
-                continue;
-            };
-            let Some((camera, file)) = rest.split_once('/') else {
-                continue;
-            };
-            let base = file.rsplit('/').next().unwrap_or(file);
-            if base == format!("{camera}_frames.csv") {
-                let list = parse_camera_frames(&text(bytes, &name)?)
-                    .map_err(|m| bad(format!("{name}: {m}")))?;
-                camera_frames.insert(camera.to_string(), list);
-            } else if let Some(stem) = base.strip_suffix(".png") {
-                let Some(frame) = stem.rsplit('_').next().and_then(|f| f.parse::<u64>().ok())
-                else {
-                    continue;
-                };
-                let kind = if file.contains("semantic") {
-                    ImageKind::Semantic
-                } else {
-                    ImageKind::Grayscale
-                };
-                images.insert((camera.to_string(), kind, frame), bytes);
-            }
-        }
+        let metadata = take_table(&mut members, &prefix, "metadata.toml", path)?;
+        let initial = take_table(&mut members, &prefix, "initial.toml", path)?;
+        let frames = take_frames(&mut members, &prefix, path)?;
+        let (camera_frames, images) = camera_members(members, &prefix, path)?;
         Ok(LacRecording {
             path: path.to_path_buf(),
             metadata,
@@ -265,6 +193,133 @@ impl LacRecording {
     pub fn frame(&self, frame: u64) -> Option<&LacFrame> {
         self.frames.iter().find(|f| f.frame == frame)
     }
+}
+
+/// Images by (camera, kind, frame), PNG-encoded.
+type EncodedImages = BTreeMap<(String, ImageKind, u64), Vec<u8>>;
+
+/// The file members of the gzip tarball `reader` (`path` names it in errors), by name
+/// without a leading `./`.
+fn read_members(
+    reader: impl Read,
+    path: &Path,
+) -> Result<BTreeMap<String, Vec<u8>>, PerceptionError> {
+    let bad = |m: String| PerceptionError::archive(path, m);
+    let mut archive = tar::Archive::new(flate2::read::GzDecoder::new(reader));
+    let mut members: BTreeMap<String, Vec<u8>> = BTreeMap::new();
+    let entries = archive
+        .entries()
+        .map_err(|e| bad(format!("not a gzip tarball: {e}")))?;
+    for entry in entries {
+        let mut entry = entry.map_err(|e| bad(format!("truncated or corrupt archive: {e}")))?;
+        if !entry.header().entry_type().is_file() {
+            continue;
+        }
+        let name = entry
+            .path()
+            .map_err(|e| bad(format!("bad member name: {e}")))?
+            .to_string_lossy()
+            .trim_start_matches("./")
+            .to_string();
+        let bytes = read_member(&mut entry, &name, path)?;
+        members.insert(name, bytes);
+    }
+    Ok(members)
+}
+
+/// The data of archive member `name`; an error when shorter than its header says.
+fn read_member<R: Read>(
+    entry: &mut tar::Entry<'_, R>,
+    name: &str,
+    path: &Path,
+) -> Result<Vec<u8>, PerceptionError> {
+    let bad = |m: String| PerceptionError::archive(path, m);
+    // the size is the header's word: reserve at most 1 MiB up front (the data
+    // read decides the rest), and a member shorter than its header says is truncated
+    let size = entry.size();
+    let mut bytes = Vec::with_capacity(size.min(1 << 20) as usize);
+    entry
+        .read_to_end(&mut bytes)
+        .map_err(|e| bad(format!("{name}: truncated or corrupt: {e}")))?;
+    if bytes.len() as u64 != size {
+        return Err(bad(format!(
+            "{name}: truncated: the header says {size} bytes, the archive holds {}",
+            bytes.len()
+        )));
+    }
+    Ok(bytes)
+}
+
+/// Member `name`'s bytes as text.
+fn member_text(bytes: Vec<u8>, name: &str, path: &Path) -> Result<String, PerceptionError> {
+    String::from_utf8(bytes)
+        .map_err(|_| PerceptionError::archive(path, format!("{name}: not UTF-8 text")))
+}
+
+/// Remove the required TOML member `prefix` + `name` from `members` and parse it.
+fn take_table(
+    members: &mut BTreeMap<String, Vec<u8>>,
+    prefix: &str,
+    name: &str,
+    path: &Path,
+) -> Result<toml::Table, PerceptionError> {
+    let bad = |m: String| PerceptionError::archive(path, m);
+    let bytes = members
+        .remove(&format!("{prefix}{name}"))
+        .ok_or_else(|| bad(format!("missing {name}")))?;
+    member_text(bytes, name, path)?
+        .parse::<toml::Table>()
+        .map_err(|e| bad(format!("{name}: {e}")))
+}
+
+/// Remove the required member `prefix` + `frames.csv` from `members` and parse it.
+fn take_frames(
+    members: &mut BTreeMap<String, Vec<u8>>,
+    prefix: &str,
+    path: &Path,
+) -> Result<Vec<LacFrame>, PerceptionError> {
+    let bad = |m: String| PerceptionError::archive(path, m);
+    let frames_csv = members
+        .remove(&format!("{prefix}frames.csv"))
+        .ok_or_else(|| bad("missing frames.csv".into()))?;
+    parse_frames(&member_text(frames_csv, "frames.csv", path)?)
+        .map_err(|m| bad(format!("frames.csv: {m}")))
+}
+
+/// Each camera's frame list and images (still PNG-encoded) among the members under
+/// `prefix` + `cameras/`; other members are ignored.
+fn camera_members(
+    members: BTreeMap<String, Vec<u8>>,
+    prefix: &str,
+    path: &Path,
+) -> Result<(BTreeMap<String, Vec<u64>>, EncodedImages), PerceptionError> {
+    let mut camera_frames = BTreeMap::new();
+    let mut images = BTreeMap::new();
+    for (name, bytes) in members {
+        let Some(rest) = name.strip_prefix(&format!("{prefix}cameras/")) else {
+            continue;
+        };
+        let Some((camera, file)) = rest.split_once('/') else {
+            continue;
+        };
+        let base = file.rsplit('/').next().unwrap_or(file);
+        if base == format!("{camera}_frames.csv") {
+            let list = parse_camera_frames(&member_text(bytes, &name, path)?)
+                .map_err(|m| PerceptionError::archive(path, format!("{name}: {m}")))?;
+            camera_frames.insert(camera.to_string(), list);
+        } else if let Some(stem) = base.strip_suffix(".png") {
+            let Some(frame) = stem.rsplit('_').next().and_then(|f| f.parse::<u64>().ok()) else {
+                continue;
+            };
+            let kind = if file.contains("semantic") {
+                ImageKind::Semantic
+            } else {
+                ImageKind::Grayscale
+            };
+            images.insert((camera.to_string(), kind, frame), bytes);
+        }
+    }
+    Ok((camera_frames, images))
 }
 
 /// What is wrong with a CSV member of a `.lac` archive (the reader adds the member's name).

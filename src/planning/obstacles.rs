@@ -435,17 +435,39 @@ impl ObstacleMemory {
         if !p.x.is_finite() || !p.y.is_finite() || !radius_m.is_finite() {
             return false;
         }
+        let merge = self.merge_radius_at(p);
+        let nearest = self.nearest_same_size(p, radius_m, merge);
+        // a sighting merges into a rock only (lander points have no sightings)
+        let nearest =
+            nearest.filter(|&(id, _)| may_start || self.obstacles[id as usize].sightings > 0);
+        match nearest {
+            Some((id, _)) => self.merge_into(id, p, z_m, radius_m, hits),
+            None if !may_start => return false,
+            None => self.start_obstacle(p, z_m, radius_m, hits),
+        }
+        self.max_radius_m = self.max_radius_m.max(radius_m);
+        true
+    }
+
+    /// How far from a remembered obstacle a detection at `p` merges into it, metres
+    /// (`near_merge_radius_m` near the rover).
+    fn merge_radius_at(&self, p: Point2<f64>) -> f64 {
         let near = self.config.near_merge_radius_m > 0.0
             && self
                 .rover
                 .is_some_and(|r| (p - r).norm() <= self.config.near_range_m);
-        let merge = if near {
+        if near {
             self.config
                 .near_merge_radius_m
                 .min(self.config.merge_radius_m)
         } else {
             self.config.merge_radius_m
-        };
+        }
+    }
+
+    /// The nearest remembered obstacle within `merge` of `p` whose size fits `radius_m`
+    /// (`merge_size_ratio`), and its distance.
+    fn nearest_same_size(&self, p: Point2<f64>, radius_m: f64, merge: f64) -> Option<(u32, f64)> {
         let ratio = self.config.merge_size_ratio;
         // a rock of very different size is another rock (lander points merge by place only)
         let same_size = |o: &Obstacle| {
@@ -462,73 +484,64 @@ impl ObstacleMemory {
                 nearest = Some((id, d));
             }
         });
+        nearest
+    }
+
+    /// Merge a detection at `p` (height `z_m`, measured `radius_m`, worth `hits`) into
+    /// obstacle `id`: a running mean of its position, and its radii's quantile.
+    fn merge_into(&mut self, id: u32, p: Point2<f64>, z_m: f64, radius_m: f64, hits: u32) {
         let (frame, window) = (self.frame, self.config.redetect_window_frames);
         let quantile = self.config.size_quantile;
-        // a sighting merges into a rock only (lander points have no sightings)
-        let nearest =
-            nearest.filter(|&(id, _)| may_start || self.obstacles[id as usize].sightings > 0);
-        match nearest {
-            Some((id, _)) => {
-                let o = &mut self.obstacles[id as usize];
-                let radii = &mut self.radii[id as usize];
-                if o.hits == 0 && o.sightings > 0 {
-                    // refuted: detected again promptly, it gets its detections back;
-                    // otherwise it starts afresh
-                    if window > 0 && frame.saturating_sub(o.last_hit_frame) <= window {
-                        o.hits = o.refuted_hits;
-                    } else {
-                        radii.clear();
-                        o.sightings = 0;
-                        o.radius_m = 0.0;
-                    }
-                }
-                let old = o.p;
-                // running mean, but never weighting the newest detection below
-                // `recent_weight`: odometry drifts, and the latest detection was made in the
-                // frame the rover is driving in now
-                let n = f64::from(o.hits);
-                let w = (1.0 / (n + 1.0)).max(self.config.recent_weight);
-                o.p = Point2::from(old.coords + (p.coords - old.coords) * w);
-                if z_m.is_finite() {
-                    o.z_m = if o.z_m.is_finite() {
-                        o.z_m + (z_m - o.z_m) * w
-                    } else {
-                        z_m
-                    };
-                }
-                o.hits += hits;
-                o.misses = 0;
-                o.last_hit_frame = frame;
-                if radius_m > 0.0 {
-                    radii.push(radius_m);
-                    o.sightings += 1;
-                    o.radius_m = quantile_of(radii, quantile);
-                }
-                let (old3, new3) = (p3(&old), p3(&o.p));
-                self.index.relocate(id, &old3, &new3);
-            }
-            None if !may_start => return false,
-            None => {
-                self.index.insert(self.obstacles.len() as u32, &p3(&p));
-                self.radii.push(if radius_m > 0.0 {
-                    vec![radius_m]
-                } else {
-                    Vec::new()
-                });
-                self.obstacles.push(Obstacle {
-                    p,
-                    z_m,
-                    radius_m,
-                    hits,
-                    misses: 0,
-                    last_hit_frame: frame,
-                    sightings: u32::from(radius_m > 0.0),
-                    refuted_hits: 0,
-                });
-            }
+        let o = &mut self.obstacles[id as usize];
+        let radii = &mut self.radii[id as usize];
+        if o.hits == 0 && o.sightings > 0 {
+            reopen_refuted(o, radii, frame, window);
         }
-        self.max_radius_m = self.max_radius_m.max(radius_m);
-        true
+        let old = o.p;
+        // running mean, but never weighting the newest detection below
+        // `recent_weight`: odometry drifts, and the latest detection was made in the
+        // frame the rover is driving in now
+        let n = f64::from(o.hits);
+        let w = (1.0 / (n + 1.0)).max(self.config.recent_weight);
+        o.p = Point2::from(old.coords + (p.coords - old.coords) * w);
+        if z_m.is_finite() {
+            o.z_m = if o.z_m.is_finite() {
+                o.z_m + (z_m - o.z_m) * w
+            } else {
+                z_m
+            };
+        }
+        o.hits += hits;
+        o.misses = 0;
+        o.last_hit_frame = frame;
+        if radius_m > 0.0 {
+            radii.push(radius_m);
+            o.sightings += 1;
+            o.radius_m = quantile_of(radii, quantile);
+        }
+        let (old3, new3) = (p3(&old), p3(&o.p));
+        self.index.relocate(id, &old3, &new3);
+    }
+
+    /// Remember a new obstacle detected at `p` (height `z_m`, measured `radius_m`, worth
+    /// `hits`).
+    fn start_obstacle(&mut self, p: Point2<f64>, z_m: f64, radius_m: f64, hits: u32) {
+        self.index.insert(self.obstacles.len() as u32, &p3(&p));
+        self.radii.push(if radius_m > 0.0 {
+            vec![radius_m]
+        } else {
+            Vec::new()
+        });
+        self.obstacles.push(Obstacle {
+            p,
+            z_m,
+            radius_m,
+            hits,
+            misses: 0,
+            last_hit_frame: self.frame,
+            sightings: u32::from(radius_m > 0.0),
+            refuted_hits: 0,
+        });
     }
 
     /// Move every obstacle to `moved(last_hit_frame, p)`: the planner's frame was corrected
@@ -561,6 +574,18 @@ impl ObstacleMemory {
                 visit(o);
             }
         });
+    }
+}
+
+/// A refuted rock (`o`, its measured `radii`) detected again in `frame`: within `window`
+/// frames of its last detection it gets its detections back; otherwise it starts afresh.
+fn reopen_refuted(o: &mut Obstacle, radii: &mut Vec<f64>, frame: u64, window: u64) {
+    if window > 0 && frame.saturating_sub(o.last_hit_frame) <= window {
+        o.hits = o.refuted_hits;
+    } else {
+        radii.clear();
+        o.sightings = 0;
+        o.radius_m = 0.0;
     }
 }
 

@@ -147,9 +147,32 @@ fn quantile_of_sorted(sorted: &[f64], q: f64) -> f64 {
 /// Score `boulders` (the front end's output on `frame`) against the frame's truth.
 pub fn score_frame(frame: &StereoFrame, boulders: &[Boulder], config: &MatchConfig) -> FrameScore {
     let eye = Point3::from(frame.world_from_left.translation.vector);
-    let width = frame.left.width;
+    let mut rocks = rock_outcomes(frame, eye, config);
+    let p_world = detections_in_world(frame, boulders);
+    let pairs = candidate_pairs(frame, &p_world, eye, config);
+    let matched_rock = assign_pairs(pairs, boulders.len(), &mut rocks);
+    let detections = boulders
+        .iter()
+        .zip(&p_world)
+        .zip(&matched_rock)
+        .map(|((b, p), m)| detection_outcome(frame, b, p, *m, eye))
+        .collect();
+    FrameScore {
+        seed: 0,
+        sun_elevation_deg: 0.0,
+        tick: 0,
+        rocks,
+        detections,
+        render_ms: frame.render_ms,
+        front_end_ms: 0.0,
+    }
+}
+
+/// The frame's truth rocks seen from `eye` (the left camera), unmatched, and whether recall
+/// counts each.
+fn rock_outcomes(frame: &StereoFrame, eye: Point3<f64>, config: &MatchConfig) -> Vec<RockOutcome> {
     let touching = rocks_near_border(frame, config.border_margin_px);
-    let mut rocks: Vec<RockOutcome> = frame
+    frame
         .rocks
         .iter()
         .map(|r| {
@@ -169,15 +192,27 @@ pub fn score_frame(frame: &StereoFrame, boulders: &[Boulder], config: &MatchConf
                 error_m: None,
             }
         })
-        .collect();
-    let p_world: Vec<Point3<f64>> = boulders
+        .collect()
+}
+
+/// The boulders' positions in the world frame.
+fn detections_in_world(frame: &StereoFrame, boulders: &[Boulder]) -> Vec<Point3<f64>> {
+    boulders
         .iter()
         .map(|b| {
             let [x, y, z] = b.position_camera;
             frame.world_from_left * Point3::new(x, y, z)
         })
-        .collect();
-    // candidate pairs within the gate, nearest first, each side used once
+        .collect()
+}
+
+/// The (distance, detection, rock) pairs within the match gate, nearest first.
+fn candidate_pairs(
+    frame: &StereoFrame,
+    p_world: &[Point3<f64>],
+    eye: Point3<f64>,
+    config: &MatchConfig,
+) -> Vec<(f64, usize, usize)> {
     let mut pairs = Vec::new();
     for (d, p) in p_world.iter().enumerate() {
         if (p - eye).norm() > config.match_max_range_m {
@@ -191,53 +226,61 @@ pub fn score_frame(frame: &StereoFrame, boulders: &[Boulder], config: &MatchConf
         }
     }
     pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut matched_rock = vec![None; boulders.len()];
+    pairs
+}
+
+/// Match each of `detections` detections and each of `rocks` at most once, taking `pairs`
+/// in order; sets the matched rocks' errors and returns each detection's rock (index in
+/// the frame's rocks).
+fn assign_pairs(
+    pairs: Vec<(f64, usize, usize)>,
+    detections: usize,
+    rocks: &mut [RockOutcome],
+) -> Vec<Option<usize>> {
+    let mut matched_rock = vec![None; detections];
     for (e, d, k) in pairs {
         if matched_rock[d].is_none() && rocks[k].error_m.is_none() {
             matched_rock[d] = Some(k);
             rocks[k].error_m = Some(e);
         }
     }
-    let detections = boulders
-        .iter()
-        .zip(&p_world)
-        .zip(&matched_rock)
-        .map(|((b, p), m)| {
-            let [u, v] = b.pixel_centroid;
-            let idx = (v.round().max(0.0) as usize).min(frame.left.height - 1) * width
-                + (u.round().max(0.0) as usize).min(width - 1);
-            let under = frame.instance[idx];
-            let unmatched_on_rock = (m.is_none() && under != 0 && under != LANDER_INSTANCE)
-                .then(|| frame.rocks.iter().find(|r| r.id + 1 == under as usize))
-                .flatten()
-                .map(|r| {
-                    let e = (p - Point3::from(r.visible_center_world)).norm();
-                    (r.id, 2.0 * r.radius_m, e)
-                });
-            let on = match (under, frame.depth_m[idx]) {
-                (LANDER_INSTANCE, _) => "lander",
-                (0, d) if d <= 0.0 => "sky",
-                (0, _) => "ground",
-                _ => "rock",
-            };
-            DetectionOutcome {
-                range_m: (p - eye).norm(),
-                size_m: b.size_m,
-                pixel_centroid: b.pixel_centroid,
-                rock: m.map(|k| frame.rocks[k].id),
-                on,
-                unmatched_on_rock,
-            }
-        })
-        .collect();
-    FrameScore {
-        seed: 0,
-        sun_elevation_deg: 0.0,
-        tick: 0,
-        rocks,
-        detections,
-        render_ms: frame.render_ms,
-        front_end_ms: 0.0,
+    matched_rock
+}
+
+/// What became of detection `b` (at `p` in the world frame, matched to the frame's rock
+/// `m`), seen from `eye`.
+fn detection_outcome(
+    frame: &StereoFrame,
+    b: &Boulder,
+    p: &Point3<f64>,
+    m: Option<usize>,
+    eye: Point3<f64>,
+) -> DetectionOutcome {
+    let width = frame.left.width;
+    let [u, v] = b.pixel_centroid;
+    let idx = (v.round().max(0.0) as usize).min(frame.left.height - 1) * width
+        + (u.round().max(0.0) as usize).min(width - 1);
+    let under = frame.instance[idx];
+    let unmatched_on_rock = (m.is_none() && under != 0 && under != LANDER_INSTANCE)
+        .then(|| frame.rocks.iter().find(|r| r.id + 1 == under as usize))
+        .flatten()
+        .map(|r| {
+            let e = (p - Point3::from(r.visible_center_world)).norm();
+            (r.id, 2.0 * r.radius_m, e)
+        });
+    let on = match (under, frame.depth_m[idx]) {
+        (LANDER_INSTANCE, _) => "lander",
+        (0, d) if d <= 0.0 => "sky",
+        (0, _) => "ground",
+        _ => "rock",
+    };
+    DetectionOutcome {
+        range_m: (p - eye).norm(),
+        size_m: b.size_m,
+        pixel_centroid: b.pixel_centroid,
+        rock: m.map(|k| frame.rocks[k].id),
+        on,
+        unmatched_on_rock,
     }
 }
 
