@@ -111,6 +111,12 @@ fn cli_json_has_the_report_fields() {
     for s in sessions {
         assert!(s["rmse_m"].as_f64().unwrap() >= 0.0);
         assert!(s["rmse_without_global_m"].as_f64().unwrap() >= 0.0);
+        // the calibration beside the drift model's drawn biases
+        let bias = &s["odometry_bias"];
+        for key in ["scale_error", "yaw_drift_rad_per_m", "yaw_scale_error"] {
+            assert!(bias["estimated"][key].is_number(), "{bias}");
+            assert!(bias["drawn"][key].is_number(), "{bias}");
+        }
     }
     for key in ["geometric", "rocks", "productivity", "total"] {
         assert!(v["lac"][key].is_number(), "lac.{key}");

@@ -73,6 +73,9 @@ fn short_rendered_mission_reports_perception() {
         Some("images")
     );
     for s in v["sessions"].as_array().unwrap() {
+        // no drawn biases: the odometry came from the images
+        assert!(s["odometry_bias"]["estimated"].is_object(), "{s}");
+        assert!(s["odometry_bias"].get("drawn").is_none(), "{s}");
         let vo = &s["image_odometry"];
         assert_eq!(vo["pairs"].as_u64(), Some(301), "{vo}");
         assert!(vo["lost"].as_u64().unwrap() < 30, "{vo}");

@@ -6,6 +6,7 @@ use super::maps::MissionMaps;
 use super::stream::{odometry_in_world, rmse_from_m, rmse_m};
 use super::MissionConfig;
 use crate::localizer::boulder_adjustment::BoulderAdjustmentReport;
+use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::AttemptStatus;
 use crate::mapping::pictures::{height_error_png, rock_map_png, trajectory_png, Polyline};
 use crate::mapping::LacScore;
@@ -116,6 +117,9 @@ pub struct SessionReport {
     pub rmse_before_adjustment_m: f64,
     /// What the boulder adjustment did (`None`: off).
     pub boulder_adjustment: Option<BoulderAdjustmentReport>,
+    /// The odometry's systematic errors: the localizer's calibration at the end, and the
+    /// drift model's drawn ones when it measured the steps.
+    pub odometry_bias: OdometryBiasReport,
     /// Distinct collision events.
     pub collisions: usize,
     /// Boulder detections.
@@ -127,6 +131,16 @@ pub struct SessionReport {
     /// A session that started lost: how it found itself (absent for a known start).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lost_start: Option<LostStartReport>,
+}
+
+/// The odometry's biases as calibrated against what the simulation drew.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OdometryBiasReport {
+    /// The localizer's estimate at the end of the session.
+    pub estimated: OdometryBias,
+    /// The drift model's drawn biases (absent: the odometry came from images).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drawn: Option<OdometryBias>,
 }
 
 /// How a session that started lost found itself in its prior map.
@@ -264,6 +278,7 @@ struct Adjusted<'a> {
     rmse_graph_m: f64,
     rmse_before_adjustment_m: f64,
     adjustment: &'a Option<BoulderAdjustmentReport>,
+    odometry_bias: OdometryBias,
 }
 
 fn session_report(
@@ -288,6 +303,10 @@ fn session_report(
         image_odometry: log.image_odometry.clone(),
         rmse_before_adjustment_m: adjusted.rmse_before_adjustment_m,
         boulder_adjustment: adjusted.adjustment.clone(),
+        odometry_bias: OdometryBiasReport {
+            estimated: adjusted.odometry_bias,
+            drawn: log.odometry_bias,
+        },
         collisions: s.collisions,
         detections: s.detections,
         relocalizations: RelocalizationCounts::of(attempts),
@@ -352,6 +371,7 @@ pub(super) fn assemble(
                 rmse_graph_m: one.rmse_graph_m,
                 rmse_before_adjustment_m: one.rmse_before_adjustment_m,
                 adjustment: &one.adjustment,
+                odometry_bias: one.odometry_bias,
             },
             &one_attempts,
             lost_1,
@@ -364,6 +384,7 @@ pub(super) fn assemble(
                 rmse_graph_m: two.rmse_graph_m,
                 rmse_before_adjustment_m: two.rmse_before_adjustment_m,
                 adjustment: &two.adjustment,
+                odometry_bias: two.odometry_bias,
             },
             &two.attempts,
             Some(lost_2),

@@ -186,6 +186,7 @@ impl<'a> SessionSim<'a> {
                 navigation_counts: (0, 0, 0),
                 wall_time_s: 0.0,
                 image_odometry: None,
+                odometry_bias: None,
             },
             total_ticks,
             wall: 0.0,
@@ -462,6 +463,7 @@ impl<'a> SessionSim<'a> {
     pub fn finish(mut self) -> SessionLog {
         self.log.wall_time_s = self.wall;
         self.log.image_odometry = self.rendered.as_ref().and_then(|r| r.odometry_stats());
+        self.log.odometry_bias = self.log.image_odometry.is_none().then(|| self.vo.biases());
         self.log
     }
 }

@@ -3,6 +3,7 @@
 //! sets for relocalization, odometry between ticks, ground points, a summary). Frames are
 //! described in [`crate::sim::session`].
 
+use crate::localizer::odometry_bias::OdometryBias;
 use crate::planning::navigator::NavMode;
 use crate::sim::ipex::SITE_HALF_EXTENT_M;
 use crate::sim::rendered_odometry::ImageOdometryStats;
@@ -117,6 +118,9 @@ pub struct SessionLog {
     pub wall_time_s: f64,
     /// What the odometry from images did (`None`: the drift model measured the steps).
     pub image_odometry: Option<ImageOdometryStats>,
+    /// The drift model's systematic errors as drawn for this session (`None`: the odometry
+    /// came from images); what the localizer's calibration should find.
+    pub odometry_bias: Option<OdometryBias>,
 }
 
 impl FrameRecord {

@@ -2,6 +2,7 @@
 //! a per-session scale error, a yaw drift proportional to distance, a yaw-rate scale error and
 //! random-walk noise growing with the square root of the distance. Seeded.
 
+use crate::localizer::odometry_bias::OdometryBias;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -63,13 +64,13 @@ impl VisualOdometry {
         }
     }
 
-    /// The session's drawn biases: (scale error, yaw drift rad/m, yaw-rate scale error).
-    pub fn biases(&self) -> (f64, f64, f64) {
-        (
-            self.scale_error,
-            self.yaw_drift_rad_per_m,
-            self.yaw_scale_error,
-        )
+    /// The session's drawn biases, in the terms of the localizer's calibration.
+    pub fn biases(&self) -> OdometryBias {
+        OdometryBias {
+            scale_error: self.scale_error,
+            yaw_drift_rad_per_m: self.yaw_drift_rad_per_m,
+            yaw_scale_error: self.yaw_scale_error,
+        }
     }
 
     /// A measurement of the true motion `prev_from_cur` (rover frame at the previous step
