@@ -72,6 +72,10 @@ pub struct BoulderAdjustmentConfig {
     /// … an estimate with a larger standard error (from the parabola's curvature) is not
     /// used.
     pub max_standard_error: f64,
+    /// Each profile moves the fraction by at most `2 × view_bias_step`; while the move is
+    /// that long (the minimum lies beyond), profile again from there, up to this many
+    /// profiles a round (1: a single profile). See docs/design/boulder-adjustment.md.
+    pub view_bias_max_profiles: usize,
     /// The solver stops once a step lowers the cost by less than this fraction (session 1's
     /// graph holds some 10,000 observations).
     pub relative_tolerance: f64,
@@ -89,6 +93,7 @@ impl Default for BoulderAdjustmentConfig {
             estimate_view_bias: true,
             view_bias_step: 0.03,
             max_standard_error: 0.02,
+            view_bias_max_profiles: 4,
         }
     }
 }
@@ -115,6 +120,12 @@ impl BoulderAdjustmentConfig {
         }
         if self.rounds > 20 {
             return Err(FieldError::new("rounds", "must be at most 20"));
+        }
+        if !(1..=20).contains(&self.view_bias_max_profiles) {
+            return Err(FieldError::new(
+                "view_bias_max_profiles",
+                "must be between 1 and 20",
+            ));
         }
         Ok(())
     }
@@ -239,22 +250,24 @@ pub fn adjust(
         let (mut solved, mut added) = solve(fusion.view_bias_size_fraction, None)?;
         let mut estimated = None;
         if config.estimate_view_bias {
-            let f0 = fusion.view_bias_size_fraction;
             let h = config.view_bias_step;
-            let (below, _) = solve(f0 - h, Some(&solved))?;
-            let (above, _) = solve(f0 + h, Some(&solved))?;
-            let costs = [
-                below.graph().cost(),
-                solved.graph().cost(),
-                above.graph().cost(),
-            ];
-            if let Some((f, sigma)) = parabola_minimum(f0, h, costs)
-                .filter(|(f, sigma)| (0.0..=0.5).contains(f) && *sigma <= config.max_standard_error)
-            {
+            let mut f0 = fusion.view_bias_size_fraction;
+            for _ in 0..config.view_bias_max_profiles {
+                let Some((f, sigma)) = profile_minimum(&mut solve, &solved, f0, config)? else {
+                    break;
+                };
                 (solved, added) = solve(f, Some(&solved))?;
-                fusion.view_bias_size_fraction = f;
                 estimated = Some((f, sigma));
+                // a move shorter than the clamp found the minimum
+                let found = (f - f0).abs() < 2.0 * h * (1.0 - 1e-9);
+                f0 = f;
+                if found {
+                    break;
+                }
             }
+        }
+        if let Some((f, _)) = estimated {
+            fusion.view_bias_size_fraction = f;
         }
         report = summarise(&solved, &added, config);
         report.solves = solves;
@@ -269,6 +282,31 @@ pub fn adjust(
     }
     report.time_ms = started.elapsed().as_secs_f64() * 1e3;
     Ok((adjusted, report))
+}
+
+/// The viewpoint-bias fraction's profile around `f0` (`solved` is the solution at `f0`):
+/// the solutions at `f0 ± view_bias_step`, warm-started from it, and the minimum of the
+/// parabola through the three costs with its standard error, when usable (within
+/// 0–0.5, standard error within `max_standard_error`).
+fn profile_minimum(
+    solve: &mut impl FnMut(
+        f64,
+        Option<&TrajectoryGraph>,
+    ) -> Result<(TrajectoryGraph, Added), GraphError>,
+    solved: &TrajectoryGraph,
+    f0: f64,
+    config: &BoulderAdjustmentConfig,
+) -> Result<Option<(f64, f64)>, GraphError> {
+    let h = config.view_bias_step;
+    let (below, _) = solve(f0 - h, Some(solved))?;
+    let (above, _) = solve(f0 + h, Some(solved))?;
+    let costs = [
+        below.graph().cost(),
+        solved.graph().cost(),
+        above.graph().cost(),
+    ];
+    Ok(parabola_minimum(f0, h, costs)
+        .filter(|(f, sigma)| (0.0..=0.5).contains(f) && *sigma <= config.max_standard_error))
 }
 
 /// The minimum of the parabola through the costs at `f0 − h`, `f0`, `f0 + h`, kept within
@@ -592,6 +630,42 @@ mod tests {
     }
 
     #[test]
+    fn the_profile_walks_to_a_fraction_beyond_one_step() {
+        // the fusion starts at 0 (no viewpoint bias calibrated online), 0.17 short: one
+        // profile moves at most 2 × 0.03
+        let f = 1.0 / 6.0;
+        let (log, truth) = two_laps(1.002, 0.0002, f);
+        let mission = LocalizerConfig::default();
+        let mut start = TrajectoryGraph::new();
+        start.extend(&log, &mission).unwrap();
+        start.optimize().unwrap();
+        let fusion = FusionConfig {
+            view_bias_size_fraction: 0.0,
+            ..FusionConfig::default()
+        };
+        let adjusted = |profiles: usize| {
+            let config = BoulderAdjustmentConfig {
+                view_bias_max_profiles: profiles,
+                ..BoulderAdjustmentConfig::default()
+            };
+            let (graph, report) = adjust(&start, &log, &fusion, &config).unwrap();
+            (rmse_m(&truth, &graph.poses_in_prior()), report)
+        };
+        let (one_rmse, one) = adjusted(1);
+        assert!(
+            (one.view_bias_size_fraction.unwrap() - 0.06).abs() < 1e-9,
+            "{one:?}"
+        );
+        let (rmse, report) = adjusted(BoulderAdjustmentConfig::default().view_bias_max_profiles);
+        let estimate = report.view_bias_size_fraction.unwrap();
+        assert!(
+            (estimate - f).abs() < 0.01,
+            "{estimate} for {f}: {report:?}"
+        );
+        assert!(rmse < 0.005 && rmse < one_rmse, "{one_rmse} m -> {rmse} m");
+    }
+
+    #[test]
     fn validation_names_the_field() {
         assert!(BoulderAdjustmentConfig::default().validate().is_ok());
         let bad = BoulderAdjustmentConfig {
@@ -603,6 +677,15 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("model_sigma_m"));
+        let no_profile = BoulderAdjustmentConfig {
+            view_bias_max_profiles: 0,
+            ..BoulderAdjustmentConfig::default()
+        };
+        assert!(no_profile
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("view_bias_max_profiles"));
     }
 
     #[test]
