@@ -595,14 +595,21 @@ mod tests {
             .is_none());
     }
 
+    /// [`two_laps`] with the odometry 0.2 % long and 0.0002 rad per metre off, boulder
+    /// faces 1/6 of their size in front of their centres, and its pose graph solved on the
+    /// odometry alone.
+    fn two_laps_solved() -> (FrameLog, Vec<Isometry3<f64>>, TrajectoryGraph) {
+        let (log, truth) = two_laps(1.002, 0.0002, 1.0 / 6.0);
+        let mut graph = TrajectoryGraph::new();
+        graph.extend(&log, &LocalizerConfig::default()).unwrap();
+        graph.optimize().unwrap();
+        (log, truth, graph)
+    }
+
     #[test]
     fn the_viewpoint_bias_comes_out_of_the_boulders_seen_from_both_sides() {
         let f = 1.0 / 6.0;
-        let (log, truth) = two_laps(1.002, 0.0002, f);
-        let mission = LocalizerConfig::default();
-        let mut graph = TrajectoryGraph::new();
-        graph.extend(&log, &mission).unwrap();
-        graph.optimize().unwrap();
+        let (log, truth, mut graph) = two_laps_solved();
         let before = rmse_m(&truth, &graph.poses_in_prior());
         // the fusion starts from a fraction 0.05 short
         let fusion = FusionConfig {
@@ -634,11 +641,7 @@ mod tests {
         // the fusion starts at 0 (no viewpoint bias calibrated online), 0.17 short: one
         // profile moves at most 2 × 0.03
         let f = 1.0 / 6.0;
-        let (log, truth) = two_laps(1.002, 0.0002, f);
-        let mission = LocalizerConfig::default();
-        let mut start = TrajectoryGraph::new();
-        start.extend(&log, &mission).unwrap();
-        start.optimize().unwrap();
+        let (log, truth, start) = two_laps_solved();
         let fusion = FusionConfig {
             view_bias_size_fraction: 0.0,
             ..FusionConfig::default()
@@ -668,24 +671,26 @@ mod tests {
     #[test]
     fn validation_names_the_field() {
         assert!(BoulderAdjustmentConfig::default().validate().is_ok());
-        let bad = BoulderAdjustmentConfig {
-            model_sigma_m: -1.0,
-            ..BoulderAdjustmentConfig::default()
-        };
-        assert!(bad
-            .validate()
-            .unwrap_err()
-            .to_string()
-            .contains("model_sigma_m"));
-        let no_profile = BoulderAdjustmentConfig {
-            view_bias_max_profiles: 0,
-            ..BoulderAdjustmentConfig::default()
-        };
-        assert!(no_profile
-            .validate()
-            .unwrap_err()
-            .to_string()
-            .contains("view_bias_max_profiles"));
+        let defaults = BoulderAdjustmentConfig::default;
+        for (bad, field) in [
+            (
+                BoulderAdjustmentConfig {
+                    model_sigma_m: -1.0,
+                    ..defaults()
+                },
+                "model_sigma_m",
+            ),
+            (
+                BoulderAdjustmentConfig {
+                    view_bias_max_profiles: 0,
+                    ..defaults()
+                },
+                "view_bias_max_profiles",
+            ),
+        ] {
+            let message = bad.validate().unwrap_err().to_string();
+            assert!(message.contains(field), "{message}");
+        }
     }
 
     #[test]
