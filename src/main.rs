@@ -16,7 +16,7 @@ fn main() {
     let code = match cli::run(parsed) {
         Ok(code) => code,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", cli::error_message(&error));
             2
         }
     };

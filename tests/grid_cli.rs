@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{assert_refused, assert_success, segloc};
+use common::{assert_refused, assert_success, segloc, stderr_of};
 use segloc_maps::{grid_to_string, read_grid_csv, LacGrid};
 
 fn small_truth() -> LacGrid {
@@ -90,7 +90,10 @@ fn malformed_grid_exits_2_naming_file_and_line() {
         .arg(dir.path().join("t.csv"))
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
+    assert_refused(&out, "cannot read /nonexistent/g.csv");
+    // the cause once, not repeated by the error chain
+    let err = stderr_of(&out);
+    assert_eq!(err.matches("os error 2").count(), 1, "{err}");
 }
 
 #[test]

@@ -148,3 +148,36 @@ pub fn print_json(value: &impl serde::Serialize) -> Result<()> {
     println!("{}", serde_json::to_string(value)?);
     Ok(())
 }
+
+/// What the binary prints for a failed command: the error and its causes, outermost
+/// first, joined by ": " (anyhow's `{:#}`), leaving out a cause whose text the message
+/// already holds (a library error that spells out its own source in its message).
+pub fn error_message(error: &anyhow::Error) -> String {
+    let mut message = error.to_string();
+    for cause in error.chain().skip(1) {
+        let text = cause.to_string();
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+    }
+    message
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cause_is_printed_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let read = segloc_maps::MapError::read_io(Path::new("/x/g.csv"), io);
+        let error = anyhow::Error::from(read).context("ground truth");
+        assert_eq!(
+            error_message(&error),
+            "ground truth: cannot read /x/g.csv: No such file"
+        );
+        let plain = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(error_message(&plain), "outer: inner");
+    }
+}
