@@ -4,15 +4,15 @@
 //! there fixes the yaw the odometry lost while turning on the spot), and (2) the map of the
 //! frames older than `loop_closures.gap_s` before the submap. Both maps are placed with the
 //! current estimate (earlier closures applied, re-optimised after each). An accepted result
-//! becomes a between factor from the earlier frame nearest the matched landmarks (frame 0
-//! for the start map) to the submap frame nearest its matched landmarks, once the gate has
-//! confirmed it.
+//! becomes a between factor from the earlier frame that saw the matched landmarks (frame 0
+//! for the start map) to the submap frame that saw its matched landmarks
+//! ([`super::submap::anchor_frame`]), once the gate has confirmed it.
 
 use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
 use super::relocalization::accepted_answer;
 use super::report::{AttemptRecord, AttemptStatus, Confirmation, Measurement};
-use super::submap::{frame_nearest, frame_observing, landmark_positions, ANCHOR_SLACK_M};
+use super::submap::{anchor_frame, landmark_positions};
 use super::trajectory::TrajectoryGraph;
 use super::view_bias::ViewBiasCalibration;
 use super::{LocalizerConfig, LocalizerError};
@@ -256,29 +256,16 @@ fn close_loop(
         return None;
     };
     let old_from_recent = reloc.prior_from_query;
-    // the earlier frame nearest the matched landmarks of the old map, and the recent frame
-    // nearest the matched landmarks of the submap (least drift relative to them)
+    // the earlier frame and the recent frame that saw the matched landmarks of the old map
+    // and of the submap (least drift relative to them)
     let matched_old = landmark_positions(&old, reloc.inliers.iter().map(|(p, _)| *p));
     let matched_new = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
     let radius = query_fusion.cluster_radius_m;
     let j = reference.fixed_frame.unwrap_or_else(|| {
-        frame_observing(
-            &odometry,
-            &old_detections,
-            &matched_old,
-            radius,
-            ANCHOR_SLACK_M,
-        )
-        .unwrap_or_else(|| frame_nearest(&odometry, reference.frames.clone(), &matched_old))
+        let frames = reference.frames.clone();
+        anchor_frame(&odometry, &old_detections, frames, &matched_old, radius)
     });
-    let k = frame_observing(
-        &odometry,
-        &query_detections,
-        &matched_new,
-        radius,
-        ANCHOR_SLACK_M,
-    )
-    .unwrap_or_else(|| frame_nearest(&odometry, recent, &matched_new));
+    let k = anchor_frame(&odometry, &query_detections, recent, &matched_new, radius);
     let j_from_k = odometry[j].inverse() * old_from_recent * odometry[k];
     record.status = AttemptStatus::Unconfirmed(Confirmation::NextLoopClosure);
     record.measurement = Some(Measurement::Closure { j, k, j_from_k });

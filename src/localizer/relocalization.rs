@@ -6,7 +6,7 @@
 use super::fix_gate::{agrees, Tolerance};
 use super::frame_log::FrameLog;
 use super::report::{AttemptRecord, AttemptRefusal, AttemptStatus, Confirmation, Measurement};
-use super::submap::{frame_nearest, frame_observing, landmark_positions, ANCHOR_SLACK_M};
+use super::submap::{anchor_frame, landmark_positions};
 use super::trajectory::TrajectoryGraph;
 use super::LocalizerConfig;
 use crate::graph::se3;
@@ -175,14 +175,13 @@ pub fn attempt(
     }
     // anchor: a frame that saw the matched landmarks, near them (least drift relative to them)
     let matched = landmark_positions(&query, reloc.inliers.iter().map(|(_, q)| *q));
-    let k = frame_observing(
+    let k = anchor_frame(
         &odometry,
         &set,
+        first..k + 1,
         &matched,
         fusion.cluster_radius_m,
-        ANCHOR_SLACK_M,
-    )
-    .unwrap_or_else(|| frame_nearest(&odometry, first..k + 1, &matched));
+    );
     let odom_from_rover = odometry[k];
     let prior_from_rover = prior_from_odom * odom_from_rover;
     record.status = AttemptStatus::Unconfirmed(Confirmation::NextRelocalization);

@@ -11,14 +11,9 @@ pub fn frame_nearest(
     points: &[Point3<f64>],
 ) -> usize {
     let start = frames.start;
-    if points.is_empty() {
+    let Some(centroid) = centroid(points) else {
         return start;
-    }
-    let centroid = points
-        .iter()
-        .map(|p| p.coords)
-        .sum::<nalgebra::Vector3<f64>>()
-        / points.len() as f64;
+    };
     frames
         .filter(|&k| k < poses.len())
         .min_by(|&a, &b| {
@@ -31,8 +26,23 @@ pub fn frame_nearest(
 
 /// How much farther from the matched landmarks than the nearest frame that saw them a
 /// frame may be and still anchor a measurement on them (m): [`frame_observing`]'s
-/// `near_slack_m` for fixes and loop closures.
+/// `near_slack_m` in [`anchor_frame`].
 pub const ANCHOR_SLACK_M: f64 = 0.1;
+
+/// The frame of `frames` a fix or loop closure on the matched landmarks `points` is
+/// anchored at: [`frame_observing`] among `detections` (the submap's or map's, placed with
+/// `poses`) within [`ANCHOR_SLACK_M`], else, when no detection lies within `radius_m` of a
+/// matched landmark, [`frame_nearest`].
+pub fn anchor_frame(
+    poses: &[Isometry3<f64>],
+    detections: &segloc_maps::DetectionSet,
+    frames: std::ops::Range<usize>,
+    points: &[Point3<f64>],
+    radius_m: f64,
+) -> usize {
+    frame_observing(poses, detections, points, radius_m, ANCHOR_SLACK_M)
+        .unwrap_or_else(|| frame_nearest(poses, frames, points))
+}
 
 /// The frame a measurement on matched landmarks (`points`) is anchored at: of the frames
 /// whose detections in `detections` lie within `radius_m` of a matched landmark (the frames
