@@ -259,7 +259,7 @@ pub fn adjust(
                 (solved, added) = solve(f, Some(&solved))?;
                 estimated = Some((f, sigma));
                 // a move shorter than the clamp found the minimum
-                let found = (f - f0).abs() < 2.0 * h * (1.0 - 1e-9);
+                let found = (f - f0).abs() < profile_reach(h) * (1.0 - 1e-9);
                 f0 = f;
                 if found {
                     break;
@@ -309,6 +309,11 @@ fn profile_minimum(
         .filter(|(f, sigma)| (0.0..=0.5).contains(f) && *sigma <= config.max_standard_error))
 }
 
+/// The farthest one profile of step `h` moves the fraction: [`parabola_minimum`]'s clamp.
+fn profile_reach(h: f64) -> f64 {
+    2.0 * h
+}
+
 /// The minimum of the parabola through the costs at `f0 − h`, `f0`, `f0 + h`, kept within
 /// `2 h` of `f0`, and its standard error (the cost is half the sum of squared
 /// Mahalanobis residuals, so its curvature is `1 / σ²`); `None` when the costs do not
@@ -319,7 +324,8 @@ fn parabola_minimum(f0: f64, h: f64, [below, at, above]: [f64; 3]) -> Option<(f6
     if !(curvature.is_finite() && curvature > 0.0 && slope.is_finite()) {
         return None;
     }
-    let step = (-slope / curvature).clamp(-2.0 * h, 2.0 * h);
+    let reach = profile_reach(h);
+    let step = (-slope / curvature).clamp(-reach, reach);
     Some((f0 + step, curvature.sqrt().recip()))
 }
 
