@@ -10,7 +10,9 @@ use segloc::eval::lunarloc::{
     all_pairs, evaluate, self_pairs, EvalOptions, EvalReport, PAPER_PAIRS, TRAVERSES,
 };
 use segloc::eval::merge::{evaluate_merge, merged_rock_map, MergeEvalOptions};
-use segloc::eval::stream::{evaluate_stream, DriftConfig, PairChoice, StreamReport};
+use segloc::eval::stream::{
+    carry_calibration, evaluate_stream, CalibrationDrives, DriftConfig, PairChoice, StreamReport,
+};
 use segloc::eval::traverse_path;
 use segloc::landmarks::fuse_detections;
 use segloc::localizer::LocalizerConfig;
@@ -152,6 +154,13 @@ pub struct StreamArgs {
     /// `segloc map build`.)
     #[arg(long, value_name = "FILE")]
     pub localizer_config: Option<PathBuf>,
+    /// Carry an odometry calibration into the pairs from earlier drives of the same rover:
+    /// `others` (every ordered pair sharing a boulder among the traverses the pairs do not
+    /// use) or a list `1:2,2:1`. The drives run first, in order, each starting from the
+    /// biases the previous one ended on (random walks seeded with the seed + 1000); every
+    /// pair then starts from the last one's, as `[calibration.known]`.
+    #[arg(long, value_name = "DRIVES")]
+    pub carry_calibration: Option<String>,
     /// Print one JSON object (per-pair rows, the aggregate, the configuration).
     #[arg(long)]
     pub json: bool,
@@ -409,7 +418,7 @@ fn print_table(report: &EvalReport) {
 /// `segloc eval stream`.
 fn run_stream(args: &StreamArgs, config: &RelocalizeConfig) -> Result<i32> {
     let choice = parse_pairs(&args.pairs)?;
-    let localizer = super::load_toml(
+    let mut localizer = super::load_toml(
         args.localizer_config.as_deref(),
         "localizer config",
         LocalizerConfig::validate,
@@ -424,7 +433,34 @@ fn run_stream(args: &StreamArgs, config: &RelocalizeConfig) -> Result<i32> {
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} pairs {elapsed}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let report = evaluate_stream(
+    let carried = match &args.carry_calibration {
+        Some(drives) => {
+            let drives = match (drives.as_str(), parse_pairs(drives)) {
+                ("others", _) => CalibrationDrives::OtherTraverses,
+                (_, Ok(PairChoice::List(list))) => CalibrationDrives::List(list),
+                _ => bail!(
+                    "--carry-calibration: expected `others` or pairs PRIOR:QUERY separated by \
+                     commas (e.g. 1:2,2:1), got `{drives}`"
+                ),
+            };
+            let carried = carry_calibration(
+                &args.data,
+                &drives,
+                &choice,
+                &drift,
+                args.seed,
+                &config.landmarks,
+                &localizer,
+            )?;
+            localizer.calibration.known = carried.known;
+            localizer.calibration.prior_scale = carried.sigma.scale_error;
+            localizer.calibration.prior_yaw_drift_rad_per_m = carried.sigma.yaw_drift_rad_per_m;
+            localizer.calibration.prior_yaw_scale = carried.sigma.yaw_scale_error;
+            Some(carried)
+        }
+        None => None,
+    };
+    let mut report = evaluate_stream(
         &args.data,
         &choice,
         &drift,
@@ -436,6 +472,7 @@ fn run_stream(args: &StreamArgs, config: &RelocalizeConfig) -> Result<i32> {
             bar.set_position(done as u64);
         },
     )?;
+    report.carried_calibration = carried;
     bar.finish_and_clear();
     if args.json {
         print_json(&report)?;
@@ -535,4 +572,19 @@ fn print_stream_table(report: &StreamReport) {
         a.median_frame_ms,
         a.median_attempt_ms
     );
+    if let Some(c) = &report.carried_calibration {
+        let (k, s) = (&c.known, &c.sigma);
+        println!(
+            "odometry calibration carried in from {} drives (seed {}): scale error {:.3} ± {:.3} %, \
+             yaw drift {:.5} ± {:.5} rad/m, yaw-rate scale error {:.4} ± {:.4} %",
+            c.drives.len(),
+            c.seed,
+            100.0 * k.scale_error,
+            100.0 * s.scale_error,
+            k.yaw_drift_rad_per_m,
+            s.yaw_drift_rad_per_m,
+            100.0 * k.yaw_scale_error,
+            100.0 * s.yaw_scale_error
+        );
+    }
 }

@@ -297,6 +297,7 @@ fn summary(
         "attempt_ms": stats(&attempts),
         "online_solves": session.online_solves,
         "landmarks_in_map": session.map.len(),
+        "odometry_bias": session.odometry_bias,
         "config": config,
     })
 }

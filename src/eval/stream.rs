@@ -21,6 +21,7 @@ use super::lunarloc::{common_landmarks, PAPER_PAIRS, TRAVERSES};
 use super::{transform_error, traverse_path};
 use crate::field_error::FieldError;
 use crate::landmarks::{fuse_detections, FusionConfig};
+use crate::localizer::odometry_bias::{BiasPrior, OdometryBias};
 use crate::localizer::{Localizer, LocalizerConfig, LocalizerError, Measurement, SessionResult};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -459,6 +460,10 @@ pub struct PairRow {
     pub fixes: Vec<FixScore>,
     /// The accepted fixes that are wrong ([`WRONG_FIX_M`], [`WRONG_FIX_DEG`]).
     pub wrong_fixes: Vec<FixScore>,
+    /// The odometry's biases as the localizer estimated them at the end of the drive (to
+    /// compare with the drift drawn, [`StreamReport::drift`]; what a later drive of the same
+    /// rover can carry over as `[calibration.known]`).
+    pub odometry_bias: OdometryBias,
     /// Wall time of the frames.
     pub time: FrameTimes,
 }
@@ -650,6 +655,7 @@ pub fn run_pair(
         max_fix_error_m: fixes.iter().map(|f| f.error_m).reduce(f64::max),
         wrong_fixes: fixes.iter().filter(|f| f.wrong).cloned().collect(),
         fixes,
+        odometry_bias: r.session.odometry_bias,
         time: FrameTimes {
             median_ms: median(&r.plain_ms),
             p99_ms: quantile(&r.plain_ms, 0.99),
@@ -785,8 +791,11 @@ pub struct StreamReport {
     pub aggregate: Aggregate,
     /// The fusion the prior maps were made with (as `segloc map build`).
     pub prior_fusion: FusionConfig,
-    /// The localizer's configuration.
+    /// The localizer's configuration (with `[calibration.known]` as carried in, if it was).
     pub config: LocalizerConfig,
+    /// The calibration drives run before the pairs, when their calibration was carried in
+    /// (`segloc eval stream --carry-calibration`).
+    pub carried_calibration: Option<CarriedCalibration>,
 }
 
 /// Errors of the stream evaluation.
@@ -801,6 +810,11 @@ pub enum StreamError {
     /// The drift is out of range.
     #[error(transparent)]
     Drift(#[from] FieldError),
+    /// No calibration drive to run: every traverse is evaluated.
+    #[error(
+        "no calibration drive: the evaluated pairs use every traverse (give the drives as a list)"
+    )]
+    NoCalibrationDrives,
     /// The localizer failed on a pair.
     #[error("pair ({prior}, {query}): {source}")]
     Localizer {
@@ -833,16 +847,7 @@ pub fn evaluate_stream(
             .collect(),
         PairChoice::All => (1..=TRAVERSES).collect(),
     };
-    let mut traverses = BTreeMap::new();
-    for n in needed {
-        if let std::collections::btree_map::Entry::Vacant(slot) = traverses.entry(n) {
-            slot.insert(read_lunarloc_traverse(&traverse_path(data, n))?);
-        }
-    }
-    let maps: BTreeMap<usize, ObjectMap> = traverses
-        .iter()
-        .map(|(&n, t)| (n, fuse_detections(&t.detections(), prior_fusion)))
-        .collect();
+    let (traverses, maps) = load_traverses(data, needed, prior_fusion)?;
     let pairs = pair_list(choice, &maps)?;
     let mut drives: BTreeMap<usize, Drive> = BTreeMap::new();
     let mut rows = Vec::with_capacity(pairs.len());
@@ -870,7 +875,187 @@ pub fn evaluate_stream(
         pairs: rows,
         prior_fusion: prior_fusion.clone(),
         config: config.clone(),
+        carried_calibration: None,
     })
+}
+
+/// The drives that calibrate the odometry before the evaluated pairs (see
+/// [`carry_calibration`]).
+#[derive(Clone, Debug)]
+pub enum CalibrationDrives {
+    /// Every ordered pair sharing a boulder among the traverses the evaluated pairs do not
+    /// use (held out from them).
+    OtherTraverses,
+    /// These ordered pairs (prior, query), in this order.
+    List(Vec<(usize, usize)>),
+}
+
+/// Added to the evaluation's seed for the calibration drives' random walks, so that they
+/// never share one with an evaluated drive.
+pub const CALIBRATION_SEED_OFFSET: u64 = 1000;
+
+/// One calibration drive.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CalibrationDrive {
+    /// Prior traverse number.
+    pub prior: usize,
+    /// Query traverse number.
+    pub query: usize,
+    /// Fixes that entered its pose graph (without one, its estimate is not carried on).
+    pub accepted: usize,
+    /// The biases estimated at its end.
+    pub odometry_bias: OdometryBias,
+}
+
+/// An odometry calibration carried from drive to drive of the same rover, as a team
+/// carries its rover's calibration from one session to the next.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CarriedCalibration {
+    /// Seed of the calibration drives' random walks.
+    pub seed: u64,
+    /// The drives, in the order they ran.
+    pub drives: Vec<CalibrationDrive>,
+    /// The biases carried into the evaluated pairs (`[calibration.known]`): the median of
+    /// the drives' estimates.
+    pub known: OdometryBias,
+    /// Their uncertainty (1 σ), the evaluated pairs' `[calibration] prior_*`: the standard
+    /// error of the median.
+    pub sigma: OdometryBias,
+}
+
+/// Replay the calibration `drives` (drift `drift`, random walks seeded by `seed` +
+/// [`CALIBRATION_SEED_OFFSET`]) one after the other, each starting from the biases the
+/// previous one with a fix ended on (the first from `config`'s `[calibration.known]`), and
+/// return the biases the last left for the pairs of `evaluated`.
+pub fn carry_calibration(
+    data: &Path,
+    drives: &CalibrationDrives,
+    evaluated: &PairChoice,
+    drift: &DriftConfig,
+    seed: u64,
+    prior_fusion: &FusionConfig,
+    config: &LocalizerConfig,
+) -> Result<CarriedCalibration, StreamError> {
+    drift.validate().map_err(StreamError::Drift)?;
+    let pairs = match drives {
+        CalibrationDrives::List(list) => {
+            pair_list(&PairChoice::List(list.clone()), &BTreeMap::new())?
+        }
+        CalibrationDrives::OtherTraverses => {
+            let used: Vec<usize> = match evaluated {
+                PairChoice::All => (1..=TRAVERSES).collect(),
+                _ => pair_list(evaluated, &BTreeMap::new())?
+                    .iter()
+                    .flat_map(|&(a, b)| [a, b])
+                    .collect(),
+            };
+            let others = (1..=TRAVERSES).filter(|n| !used.contains(n));
+            sharing_pairs(&load_traverses(data, others, prior_fusion)?.1)
+        }
+    };
+    if pairs.is_empty() {
+        return Err(StreamError::NoCalibrationDrives);
+    }
+    let (traverses, maps) =
+        load_traverses(data, pairs.iter().flat_map(|&(a, b)| [a, b]), prior_fusion)?;
+    let seed = seed + CALIBRATION_SEED_OFFSET;
+    let mut config = config.clone();
+    let mut run = Vec::with_capacity(pairs.len());
+    let mut calibrated = Vec::new();
+    for &(prior, query) in &pairs {
+        let drive = drive_from_traverse(query, &traverses[&query], drift, seed);
+        let r = replay(maps[&prior].clone(), &drive, &config).map_err(|source| {
+            StreamError::Localizer {
+                prior,
+                query,
+                source,
+            }
+        })?;
+        let accepted = r.session.attempts.iter().filter(|a| a.accepted()).count();
+        if accepted > 0 {
+            calibrated.push(r.session.odometry_bias);
+            config.calibration.known = median_bias(&calibrated);
+        }
+        run.push(CalibrationDrive {
+            prior,
+            query,
+            accepted,
+            odometry_bias: r.session.odometry_bias,
+        });
+    }
+    Ok(CarriedCalibration {
+        seed,
+        drives: run,
+        known: median_bias(&calibrated),
+        sigma: median_sigma(&calibrated, &config.calibration.prior()),
+    })
+}
+
+/// The median of each bias over `biases` (zero when empty): robust to the drives whose few
+/// fixes left their estimate wide of the others.
+fn median_bias(biases: &[OdometryBias]) -> OdometryBias {
+    bias_map(biases, median)
+}
+
+/// The standard error of [`median_bias`]: 1.2533 × 1.4826 × the median absolute deviation,
+/// over √n, for each bias, but never under a hundredth of `prior`'s σ; `prior`'s σ itself
+/// from fewer than [`MIN_DRIVES_FOR_SPREAD`] drives.
+fn median_sigma(biases: &[OdometryBias], prior: &BiasPrior) -> OdometryBias {
+    let prior = OdometryBias {
+        scale_error: prior.scale_error,
+        yaw_drift_rad_per_m: prior.yaw_drift_rad_per_m,
+        yaw_scale_error: prior.yaw_scale_error,
+    };
+    if biases.len() < MIN_DRIVES_FOR_SPREAD {
+        return prior;
+    }
+    let n = biases.len() as f64;
+    let spread = bias_map(biases, |v| {
+        let m = median(v);
+        let deviations: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
+        1.2533 * 1.4826 * median(&deviations) / n.sqrt()
+    });
+    OdometryBias {
+        scale_error: spread.scale_error.max(0.01 * prior.scale_error),
+        yaw_drift_rad_per_m: spread
+            .yaw_drift_rad_per_m
+            .max(0.01 * prior.yaw_drift_rad_per_m),
+        yaw_scale_error: spread.yaw_scale_error.max(0.01 * prior.yaw_scale_error),
+    }
+}
+
+/// Fewest calibration drives with a fix whose spread gives the carried calibration's σ.
+pub const MIN_DRIVES_FOR_SPREAD: usize = 5;
+
+/// `statistic` of each bias over `biases`.
+fn bias_map(biases: &[OdometryBias], statistic: impl Fn(&[f64]) -> f64) -> OdometryBias {
+    let of = |f: fn(&OdometryBias) -> f64| statistic(&biases.iter().map(f).collect::<Vec<_>>());
+    OdometryBias {
+        scale_error: of(|b| b.scale_error),
+        yaw_drift_rad_per_m: of(|b| b.yaw_drift_rad_per_m),
+        yaw_scale_error: of(|b| b.yaw_scale_error),
+    }
+}
+
+/// The traverses numbered in `needed`, read from `data`, and their maps fused with
+/// `prior_fusion` (world frame).
+#[allow(clippy::type_complexity)]
+fn load_traverses(
+    data: &Path,
+    needed: impl IntoIterator<Item = usize>,
+    prior_fusion: &FusionConfig,
+) -> Result<(BTreeMap<usize, Traverse>, BTreeMap<usize, ObjectMap>), StreamError> {
+    let mut traverses = BTreeMap::new();
+    for n in needed {
+        if let std::collections::btree_map::Entry::Vacant(slot) = traverses.entry(n) {
+            slot.insert(read_lunarloc_traverse(&traverse_path(data, n))?);
+        }
+    }
+    let maps = traverses
+        .iter()
+        .map(|(&n, t)| (n, fuse_detections(&t.detections(), prior_fusion)))
+        .collect();
+    Ok((traverses, maps))
 }
 
 /// The ordered pairs of `choice`, checked (`maps`: every traverse's map, for

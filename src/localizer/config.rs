@@ -3,6 +3,7 @@
 
 use super::boulder_adjustment::BoulderAdjustmentConfig;
 use super::lander_factor::LanderFitConfig;
+use super::odometry_bias::OdometryBias;
 use super::view_bias::ViewBiasConfig;
 use crate::field_error::FieldError;
 use crate::landmarks::{CentroidEstimator, FusionConfig};
@@ -192,25 +193,39 @@ pub struct CalibrationConfig {
     pub enabled: bool,
     /// Alternations of bias estimate and graph solve per calibration.
     pub rounds: usize,
+    /// Rounds before the latest that Anderson's acceleration combines to choose the next
+    /// bias (0: the plain alternation, each round solving with the latest estimate). Each
+    /// plain round recovers only part of the bias left, a small part when fixes are far
+    /// apart, so a few rounds stop short of it; see `docs/design/odometry-bias-prior.md`.
+    /// Batch solves only: the fast online mode's updates (`online_graph.incremental`) are
+    /// steps towards a solution, which Anderson's step cannot take for one.
+    pub anderson_depth: usize,
     /// Prior (1 σ) of the scale error, fraction.
     pub prior_scale: f64,
     /// Prior (1 σ) of the yaw drift, radians per metre.
     pub prior_yaw_drift_rad_per_m: f64,
     /// Prior (1 σ) of the yaw-rate scale error, fraction.
     pub prior_yaw_scale: f64,
+    /// The biases known before the session (their priors' mean, and the correction the
+    /// odometry carries until the fixes say otherwise): zero, or a calibration carried over
+    /// from an earlier session of the same odometry (`segloc localize --json` reports each
+    /// session's `odometry_bias`); the `prior_*` σ are then that calibration's uncertainty.
+    pub known: OdometryBias,
 }
 
 impl Default for CalibrationConfig {
     fn default() -> Self {
         Self {
             enabled: true,
-            rounds: 2,
+            rounds: 3,
+            anderson_depth: 2,
             // loose enough for the drift of the real-stream benchmark (1 % scale, 1° per
             // 10 m = 0.0017 rad/m) to be learnt from a few fixes
             // (docs/design/odometry-bias-prior.md)
             prior_scale: 0.02,
             prior_yaw_drift_rad_per_m: 0.005,
             prior_yaw_scale: 0.003,
+            known: OdometryBias::default(),
         }
     }
 }
@@ -219,6 +234,7 @@ impl CalibrationConfig {
     /// The priors as [`estimate_bias`](super::odometry_bias::estimate_bias) takes them.
     pub fn prior(&self) -> super::odometry_bias::BiasPrior {
         super::odometry_bias::BiasPrior {
+            mean: self.known,
             scale_error: self.prior_scale,
             yaw_drift_rad_per_m: self.prior_yaw_drift_rad_per_m,
             yaw_scale_error: self.prior_yaw_scale,
@@ -227,11 +243,35 @@ impl CalibrationConfig {
 
     /// Check the values are in range.
     pub fn validate(&self) -> Result<(), FieldError> {
+        if self.anderson_depth > 5 {
+            return Err(FieldError::new("anderson_depth", "must be at most 5"));
+        }
         positive(&[
             ("prior_scale", self.prior_scale),
             ("prior_yaw_drift_rad_per_m", self.prior_yaw_drift_rad_per_m),
             ("prior_yaw_scale", self.prior_yaw_scale),
-        ])
+        ])?;
+        known_bias_in_range(&self.known).map_err(|e| e.within("known"))
+    }
+}
+
+/// `Ok` when every bias is finite and within its plausible range (±0.5 for the scale errors,
+/// ±0.1 rad/m for the yaw drift), else the first offender.
+fn known_bias_in_range(bias: &OdometryBias) -> Result<(), FieldError> {
+    let fields = [
+        ("scale_error", bias.scale_error, 0.5),
+        ("yaw_drift_rad_per_m", bias.yaw_drift_rad_per_m, 0.1),
+        ("yaw_scale_error", bias.yaw_scale_error, 0.5),
+    ];
+    match fields
+        .iter()
+        .find(|(_, v, max)| !(v.is_finite() && v.abs() < *max))
+    {
+        Some((name, v, max)) => Err(FieldError::new(
+            *name,
+            format!("must be finite and within ±{max}, not {v}"),
+        )),
+        None => Ok(()),
     }
 }
 
@@ -509,6 +549,29 @@ mod tests {
         assert_eq!(
             c.validate().unwrap_err().field,
             "schedule.relocalize_period_s"
+        );
+    }
+
+    #[test]
+    fn a_carried_calibration_loads_from_toml_and_is_checked() {
+        let text = "[calibration]\nprior_yaw_drift_rad_per_m = 0.00003\n\
+                    [calibration.known]\nscale_error = 0.0099\nyaw_drift_rad_per_m = 0.00174\n";
+        let c: LocalizerConfig = toml::from_str(text).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.calibration.known.yaw_drift_rad_per_m, 0.00174);
+        assert_eq!(c.calibration.known.yaw_scale_error, 0.0);
+        assert_eq!(c.calibration.prior().mean, c.calibration.known);
+        let mut bad = c.clone();
+        bad.calibration.known.scale_error = f64::NAN;
+        assert_eq!(
+            bad.validate().unwrap_err().field,
+            "calibration.known.scale_error"
+        );
+        let mut bad = c;
+        bad.calibration.anderson_depth = 9;
+        assert_eq!(
+            bad.validate().unwrap_err().field,
+            "calibration.anderson_depth"
         );
     }
 }

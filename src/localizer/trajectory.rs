@@ -5,7 +5,7 @@
 use super::config::OdometryNoiseConfig;
 use super::frame_log::FrameLog;
 use super::odometry_bias::{
-    estimate_bias, stale_correction_sigma, OdometryBias, OdometryStep, StepWeight,
+    anderson_step, estimate_bias, stale_correction_sigma, OdometryBias, OdometryStep, StepWeight,
 };
 use super::LocalizerConfig;
 use crate::graph::{
@@ -204,6 +204,7 @@ impl TrajectoryGraph {
     pub fn online(config: &LocalizerConfig) -> Self {
         Self {
             online: config.online_graph.incremental,
+            bias: config.calibration.known,
             ..Self::new()
         }
     }
@@ -393,7 +394,8 @@ impl TrajectoryGraph {
             self.counts.recalibrations += 1;
             self.rebuild(config)?;
             self.update()?;
-            // the remaining rounds as in the batch calibration
+            // the remaining rounds as in the batch calibration, plain: an update is a step
+            // towards the solution, not the solution Anderson's step needs
             for _ in 1..config.calibration.rounds {
                 self.bias = self.estimate_bias(config, &weights);
                 self.rebuild(config)?;
@@ -445,12 +447,29 @@ impl TrajectoryGraph {
     /// trajectory are solved in turn). Call after [`TrajectoryGraph::optimize`].
     pub fn calibrate(&mut self, config: &LocalizerConfig, rounds: usize) -> Result<(), GraphError> {
         let weights = self.step_weights(config);
+        let (mut applied, mut estimated) = (Vec::new(), Vec::new());
         for _ in 0..rounds {
-            self.bias = self.estimate_bias(config, &weights);
+            self.next_round(config, &weights, &mut applied, &mut estimated);
             self.rebuild(config)?;
             self.optimize()?;
         }
         Ok(())
+    }
+
+    /// One round of the calibration: the bias estimated from the trajectory solved with the
+    /// current one, then the bias to solve with next (the estimate, or with
+    /// `calibration.anderson_depth` > 0 Anderson's step, [`anderson_step`]).
+    fn next_round(
+        &mut self,
+        config: &LocalizerConfig,
+        weights: &[StepWeight],
+        applied: &mut Vec<OdometryBias>,
+        estimated: &mut Vec<OdometryBias>,
+    ) {
+        applied.push(self.bias);
+        estimated.push(self.estimate_bias(config, weights));
+        let c = &config.calibration;
+        self.bias = anderson_step(applied, estimated, &c.prior(), c.anderson_depth);
     }
 
     /// A copy without the loop closures (the relocalizations and pose priors kept), at the
