@@ -74,6 +74,11 @@ fn an_exported_session_localizes_from_the_command_line() {
     assert!(summary["first_fix_t"].as_f64().unwrap() <= 60.0);
     assert_eq!(summary["prior_from_odom"].as_array().unwrap().len(), 4);
     assert!(summary["config"]["gate"].is_object());
+    // the session's calibration of its odometry, to carry into the next session
+    let bias = &summary["odometry_bias"];
+    for field in ["scale_error", "yaw_drift_rad_per_m", "yaw_scale_error"] {
+        assert!(bias[field].as_f64().is_some_and(f64::is_finite), "{bias}");
+    }
     // the trajectory from the first fix on, within 2 cm of the truth
     let truth: std::collections::HashMap<i64, [f64; 3]> = read_tum(&truth).into_iter().collect();
     let estimate = read_tum(&tum);
@@ -210,4 +215,17 @@ fn the_localizer_config_prints_and_loads() {
         .unwrap();
     assert_refused(&out, "localizer.toml");
     assert_refused(&out, "gate.yaw_deg");
+    // a carried calibration out of range is named too
+    let calibration = dir.path().join("calibration.toml");
+    std::fs::write(&calibration, "[calibration.known]\nscale_error = 3.0\n").unwrap();
+    let out = segloc()
+        .args(["localize", "--frames"])
+        .arg(&frames)
+        .arg("-o")
+        .arg(dir.path().join("out.tum"))
+        .arg("--localizer-config")
+        .arg(&calibration)
+        .output()
+        .unwrap();
+    assert_refused(&out, "calibration.known.scale_error");
 }
