@@ -204,28 +204,23 @@ fn the_localizer_config_prints_and_loads() {
     std::fs::write(&config, text.replace("yaw_deg = 0.5", "yaw_deg = -0.5")).unwrap();
     let frames = dir.path().join("drive.jsonl");
     std::fs::write(&frames, GOOD).unwrap();
-    let out = segloc()
-        .args(["localize", "--frames"])
-        .arg(&frames)
-        .arg("-o")
-        .arg(dir.path().join("out.tum"))
-        .arg("--localizer-config")
-        .arg(&config)
-        .output()
-        .unwrap();
+    let localize_with = |config: &Path| {
+        segloc()
+            .args(["localize", "--frames"])
+            .arg(&frames)
+            .arg("-o")
+            .arg(dir.path().join("out.tum"))
+            .arg("--localizer-config")
+            .arg(config)
+            .output()
+            .unwrap()
+    };
+    let out = localize_with(&config);
     assert_refused(&out, "localizer.toml");
     assert_refused(&out, "gate.yaw_deg");
     // a carried calibration out of range is named too
     let calibration = dir.path().join("calibration.toml");
     std::fs::write(&calibration, "[calibration.known]\nscale_error = 3.0\n").unwrap();
-    let out = segloc()
-        .args(["localize", "--frames"])
-        .arg(&frames)
-        .arg("-o")
-        .arg(dir.path().join("out.tum"))
-        .arg("--localizer-config")
-        .arg(&calibration)
-        .output()
-        .unwrap();
+    let out = localize_with(&calibration);
     assert_refused(&out, "calibration.known.scale_error");
 }
