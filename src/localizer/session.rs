@@ -427,6 +427,8 @@ fn finish_mapping(
     config: &LocalizerConfig,
 ) -> Result<SessionResult, LocalizerError> {
     let mut graph = TrajectoryGraph::new();
+    // a calibration carried over corrects the odometry from the first frame on
+    graph.bias = config.calibration.known;
     graph.extend(log, config)?;
     if config.factors.lander {
         // in time order, a chunk at a time, each placed with the estimate the earlier
@@ -664,6 +666,48 @@ mod tests {
         assert!(first.translation.vector.norm() < 1e-9);
         assert!(session.map.len() > 20);
         assert!(session.map.notes.contains_key(VIEW_BIAS_NOTE));
+    }
+
+    #[test]
+    fn a_carried_calibration_straightens_a_mapping_session_without_fixes() {
+        // two thirds of a lap: no loop to close, only the odometry, 2 % long and turning
+        // 0.003 rad per metre too far (measured: 6.6 cm off at worst without the calibration,
+        // the boulder adjustment straightening part of it)
+        let field = field();
+        let (mut frames, truth) = drive(&field, 1.02, 0.003);
+        frames.truncate(60);
+        let worst_m = |config: LocalizerConfig| {
+            let mut localizer = Localizer::new(None, config).unwrap();
+            for f in &frames {
+                localizer.push_frame(f).unwrap();
+            }
+            let session = localizer.finish().unwrap();
+            session
+                .poses
+                .iter()
+                .zip(&truth)
+                .map(|(p, t)| {
+                    let estimated = session.poses[0].inverse() * p;
+                    let true_motion = truth[0].inverse() * t;
+                    (estimated.translation.vector - true_motion.translation.vector).norm()
+                })
+                .fold(0.0, f64::max)
+        };
+        let mut carried = no_view_bias();
+        carried.calibration.known = OdometryBias {
+            scale_error: 0.02,
+            // per metre measured: the drive turns 0.003 per true metre
+            yaw_drift_rad_per_m: 0.003 / 1.02,
+            yaw_scale_error: 0.0,
+        };
+        carried.calibration.prior_scale = 1e-4;
+        carried.calibration.prior_yaw_drift_rad_per_m = 1e-5;
+        let (without, with) = (worst_m(no_view_bias()), worst_m(carried));
+        assert!(
+            without > 0.05,
+            "without the calibration: {without} m; with {with}"
+        );
+        assert!(with < 0.02, "with it: {with} m");
     }
 
     #[test]
