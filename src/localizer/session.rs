@@ -586,6 +586,30 @@ mod tests {
         (frames, truth)
     }
 
+    /// The largest position error of a mapping session over `frames` (`config`), its
+    /// motion from the first frame against the truth's.
+    fn mapped_worst_m(
+        frames: &[StreamFrame],
+        truth: &[Isometry3<f64>],
+        config: LocalizerConfig,
+    ) -> f64 {
+        let mut localizer = Localizer::new(None, config).unwrap();
+        for f in frames {
+            localizer.push_frame(f).unwrap();
+        }
+        let session = localizer.finish().unwrap();
+        session
+            .poses
+            .iter()
+            .zip(truth)
+            .map(|(p, t)| {
+                let estimated = session.poses[0].inverse() * p;
+                let true_motion = truth[0].inverse() * t;
+                (estimated.translation.vector - true_motion.translation.vector).norm()
+            })
+            .fold(0.0, f64::max)
+    }
+
     fn no_view_bias() -> LocalizerConfig {
         let mut config = LocalizerConfig::default();
         config.fusion.view_bias_size_fraction = 0.0;
@@ -634,21 +658,7 @@ mod tests {
         for f in &mut frames {
             f.odom_from_rover = tilted_from_odom * f.odom_from_rover;
         }
-        let mut localizer = Localizer::new(None, no_view_bias()).unwrap();
-        for f in &frames {
-            localizer.push_frame(f).unwrap();
-        }
-        let session = localizer.finish().unwrap();
-        let worst_m = session
-            .poses
-            .iter()
-            .zip(&truth)
-            .map(|(p, t)| {
-                let estimated = session.poses[0].inverse() * p;
-                let true_motion = truth[0].inverse() * t;
-                (estimated.translation.vector - true_motion.translation.vector).norm()
-            })
-            .fold(0.0, f64::max);
+        let worst_m = mapped_worst_m(&frames, &truth, no_view_bias());
         assert!(worst_m < 0.01, "worst {worst_m} m");
     }
 
@@ -676,23 +686,6 @@ mod tests {
         let field = field();
         let (mut frames, truth) = drive(&field, 1.02, 0.003);
         frames.truncate(60);
-        let worst_m = |config: LocalizerConfig| {
-            let mut localizer = Localizer::new(None, config).unwrap();
-            for f in &frames {
-                localizer.push_frame(f).unwrap();
-            }
-            let session = localizer.finish().unwrap();
-            session
-                .poses
-                .iter()
-                .zip(&truth)
-                .map(|(p, t)| {
-                    let estimated = session.poses[0].inverse() * p;
-                    let true_motion = truth[0].inverse() * t;
-                    (estimated.translation.vector - true_motion.translation.vector).norm()
-                })
-                .fold(0.0, f64::max)
-        };
         let mut carried = no_view_bias();
         carried.calibration.known = OdometryBias {
             scale_error: 0.02,
@@ -702,7 +695,8 @@ mod tests {
         };
         carried.calibration.prior_scale = 1e-4;
         carried.calibration.prior_yaw_drift_rad_per_m = 1e-5;
-        let (without, with) = (worst_m(no_view_bias()), worst_m(carried));
+        let without = mapped_worst_m(&frames, &truth, no_view_bias());
+        let with = mapped_worst_m(&frames, &truth, carried);
         assert!(
             without > 0.05,
             "without the calibration: {without} m; with {with}"
