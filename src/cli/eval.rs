@@ -157,8 +157,9 @@ pub struct StreamArgs {
     /// Carry an odometry calibration into the pairs from earlier drives of the same rover:
     /// `others` (every ordered pair sharing a boulder among the traverses the pairs do not
     /// use) or a list `1:2,2:1`. The drives run first, in order, each starting from the
-    /// biases the previous one ended on (random walks seeded with the seed + 1000); every
-    /// pair then starts from the last one's, as `[calibration.known]`.
+    /// median of the earlier drives' estimates (random walks seeded with the seed + 1000);
+    /// every pair then starts from the median of all, as `[calibration.known]`, with its
+    /// standard error as the priors' σ.
     #[arg(long, value_name = "DRIVES")]
     pub carry_calibration: Option<String>,
     /// Print one JSON object (per-pair rows, the aggregate, the configuration).
@@ -452,10 +453,7 @@ fn run_stream(args: &StreamArgs, config: &RelocalizeConfig) -> Result<i32> {
                 &config.landmarks,
                 &localizer,
             )?;
-            localizer.calibration.known = carried.known;
-            localizer.calibration.prior_scale = carried.sigma.scale_error;
-            localizer.calibration.prior_yaw_drift_rad_per_m = carried.sigma.yaw_drift_rad_per_m;
-            localizer.calibration.prior_yaw_scale = carried.sigma.yaw_scale_error;
+            localizer.calibration.carry(carried.known, carried.sigma);
             Some(carried)
         }
         None => None,

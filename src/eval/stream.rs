@@ -21,7 +21,7 @@ use super::lunarloc::{common_landmarks, PAPER_PAIRS, TRAVERSES};
 use super::{transform_error, traverse_path};
 use crate::field_error::FieldError;
 use crate::landmarks::{fuse_detections, FusionConfig};
-use crate::localizer::odometry_bias::{BiasPrior, OdometryBias};
+use crate::localizer::odometry_bias::OdometryBias;
 use crate::localizer::{Localizer, LocalizerConfig, LocalizerError, Measurement, SessionResult};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -924,9 +924,10 @@ pub struct CarriedCalibration {
 }
 
 /// Replay the calibration `drives` (drift `drift`, random walks seeded by `seed` +
-/// [`CALIBRATION_SEED_OFFSET`]) one after the other, each starting from the biases the
-/// previous one with a fix ended on (the first from `config`'s `[calibration.known]`), and
-/// return the biases the last left for the pairs of `evaluated`.
+/// [`CALIBRATION_SEED_OFFSET`]) one after the other, each starting from the median of the
+/// biases the earlier drives with a fix ended on (the first from `config`'s
+/// `[calibration.known]`), and return the median of them all and its standard error, for
+/// the pairs of `evaluated`.
 pub fn carry_calibration(
     data: &Path,
     drives: &CalibrationDrives,
@@ -937,9 +938,12 @@ pub fn carry_calibration(
     config: &LocalizerConfig,
 ) -> Result<CarriedCalibration, StreamError> {
     drift.validate().map_err(StreamError::Drift)?;
-    let pairs = match drives {
+    let (pairs, traverses, maps) = match drives {
         CalibrationDrives::List(list) => {
-            pair_list(&PairChoice::List(list.clone()), &BTreeMap::new())?
+            let pairs = pair_list(&PairChoice::List(list.clone()), &BTreeMap::new())?;
+            let needed = pairs.iter().flat_map(|&(a, b)| [a, b]);
+            let (traverses, maps) = load_traverses(data, needed, prior_fusion)?;
+            (pairs, traverses, maps)
         }
         CalibrationDrives::OtherTraverses => {
             let used: Vec<usize> = match evaluated {
@@ -950,21 +954,23 @@ pub fn carry_calibration(
                     .collect(),
             };
             let others = (1..=TRAVERSES).filter(|n| !used.contains(n));
-            sharing_pairs(&load_traverses(data, others, prior_fusion)?.1)
+            let (traverses, maps) = load_traverses(data, others, prior_fusion)?;
+            (sharing_pairs(&maps), traverses, maps)
         }
     };
     if pairs.is_empty() {
         return Err(StreamError::NoCalibrationDrives);
     }
-    let (traverses, maps) =
-        load_traverses(data, pairs.iter().flat_map(|&(a, b)| [a, b]), prior_fusion)?;
     let seed = seed + CALIBRATION_SEED_OFFSET;
     let mut config = config.clone();
     let mut run = Vec::with_capacity(pairs.len());
     let mut calibrated = Vec::new();
+    let mut by_query: BTreeMap<usize, Drive> = BTreeMap::new();
     for &(prior, query) in &pairs {
-        let drive = drive_from_traverse(query, &traverses[&query], drift, seed);
-        let r = replay(maps[&prior].clone(), &drive, &config).map_err(|source| {
+        let drive = by_query
+            .entry(query)
+            .or_insert_with(|| drive_from_traverse(query, &traverses[&query], drift, seed));
+        let r = replay(maps[&prior].clone(), drive, &config).map_err(|source| {
             StreamError::Localizer {
                 prior,
                 query,
@@ -987,7 +993,7 @@ pub fn carry_calibration(
         seed,
         drives: run,
         known: median_bias(&calibrated),
-        sigma: median_sigma(&calibrated, &config.calibration.prior()),
+        sigma: median_sigma(&calibrated, &config.calibration.prior().sigma),
     })
 }
 
@@ -998,16 +1004,11 @@ fn median_bias(biases: &[OdometryBias]) -> OdometryBias {
 }
 
 /// The standard error of [`median_bias`]: 1.2533 × 1.4826 × the median absolute deviation,
-/// over √n, for each bias, but never under a hundredth of `prior`'s σ; `prior`'s σ itself
-/// from fewer than [`MIN_DRIVES_FOR_SPREAD`] drives.
-fn median_sigma(biases: &[OdometryBias], prior: &BiasPrior) -> OdometryBias {
-    let prior = OdometryBias {
-        scale_error: prior.scale_error,
-        yaw_drift_rad_per_m: prior.yaw_drift_rad_per_m,
-        yaw_scale_error: prior.yaw_scale_error,
-    };
+/// over √n, for each bias, but never under a hundredth of `prior_sigma`; `prior_sigma`
+/// itself from fewer than [`MIN_DRIVES_FOR_SPREAD`] drives.
+fn median_sigma(biases: &[OdometryBias], prior_sigma: &OdometryBias) -> OdometryBias {
     if biases.len() < MIN_DRIVES_FOR_SPREAD {
-        return prior;
+        return *prior_sigma;
     }
     let n = biases.len() as f64;
     let spread = bias_map(biases, |v| {
@@ -1015,13 +1016,8 @@ fn median_sigma(biases: &[OdometryBias], prior: &BiasPrior) -> OdometryBias {
         let deviations: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
         1.2533 * 1.4826 * median(&deviations) / n.sqrt()
     });
-    OdometryBias {
-        scale_error: spread.scale_error.max(0.01 * prior.scale_error),
-        yaw_drift_rad_per_m: spread
-            .yaw_drift_rad_per_m
-            .max(0.01 * prior.yaw_drift_rad_per_m),
-        yaw_scale_error: spread.yaw_scale_error.max(0.01 * prior.yaw_scale_error),
-    }
+    let floor = 0.01 * prior_sigma.to_vector();
+    OdometryBias::from_vector(&spread.to_vector().sup(&floor))
 }
 
 /// Fewest calibration drives with a fix whose spread gives the carried calibration's σ.
@@ -1029,12 +1025,8 @@ pub const MIN_DRIVES_FOR_SPREAD: usize = 5;
 
 /// `statistic` of each bias over `biases`.
 fn bias_map(biases: &[OdometryBias], statistic: impl Fn(&[f64]) -> f64) -> OdometryBias {
-    let of = |f: fn(&OdometryBias) -> f64| statistic(&biases.iter().map(f).collect::<Vec<_>>());
-    OdometryBias {
-        scale_error: of(|b| b.scale_error),
-        yaw_drift_rad_per_m: of(|b| b.yaw_drift_rad_per_m),
-        yaw_scale_error: of(|b| b.yaw_scale_error),
-    }
+    let of = |i: usize| statistic(&biases.iter().map(|b| b.to_vector()[i]).collect::<Vec<_>>());
+    OdometryBias::from_vector(&Vector3::new(of(0), of(1), of(2)))
 }
 
 /// The traverses numbered in `needed`, read from `data`, and their maps fused with

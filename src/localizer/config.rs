@@ -235,10 +235,21 @@ impl CalibrationConfig {
     pub fn prior(&self) -> super::odometry_bias::BiasPrior {
         super::odometry_bias::BiasPrior {
             mean: self.known,
-            scale_error: self.prior_scale,
-            yaw_drift_rad_per_m: self.prior_yaw_drift_rad_per_m,
-            yaw_scale_error: self.prior_yaw_scale,
+            sigma: OdometryBias {
+                scale_error: self.prior_scale,
+                yaw_drift_rad_per_m: self.prior_yaw_drift_rad_per_m,
+                yaw_scale_error: self.prior_yaw_scale,
+            },
         }
+    }
+
+    /// Start from a calibration carried over: `known` as the biases' mean and the
+    /// odometry's correction from the first frame, `sigma` as the priors' σ.
+    pub fn carry(&mut self, known: OdometryBias, sigma: OdometryBias) {
+        self.known = known;
+        self.prior_scale = sigma.scale_error;
+        self.prior_yaw_drift_rad_per_m = sigma.yaw_drift_rad_per_m;
+        self.prior_yaw_scale = sigma.yaw_scale_error;
     }
 
     /// Check the values are in range.

@@ -45,20 +45,34 @@ pub struct OdometryBias {
 
 /// Gaussian prior of each bias: its mean (zero, or a calibration carried over from an
 /// earlier session of the same odometry) and its one σ (the sensor's specification, or the
-/// uncertainty of that calibration).
+/// uncertainty of that calibration), bias by bias.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BiasPrior {
     /// The prior's mean.
     pub mean: OdometryBias,
-    /// Scale error, fraction.
-    pub scale_error: f64,
-    /// Yaw drift, radians per metre.
-    pub yaw_drift_rad_per_m: f64,
-    /// Yaw-rate scale error, fraction.
-    pub yaw_scale_error: f64,
+    /// The prior's one σ of each bias.
+    pub sigma: OdometryBias,
 }
 
 impl OdometryBias {
+    /// The biases as a vector (scale error, yaw drift, yaw-rate scale error).
+    pub fn to_vector(&self) -> Vector3<f64> {
+        Vector3::new(
+            self.scale_error,
+            self.yaw_drift_rad_per_m,
+            self.yaw_scale_error,
+        )
+    }
+
+    /// The biases of a vector in [`OdometryBias::to_vector`]'s order.
+    pub fn from_vector(v: &Vector3<f64>) -> Self {
+        Self {
+            scale_error: v[0],
+            yaw_drift_rad_per_m: v[1],
+            yaw_scale_error: v[2],
+        }
+    }
+
     /// The step with the biases taken out.
     pub fn correct(&self, step: &OdometryStep) -> Isometry3<f64> {
         let yaw_error =
@@ -100,18 +114,18 @@ pub fn estimate_bias(
     };
     // yaw: −e = b_d·d + b_s·θ, with e the estimated minus the measured yaw increment
     let mut normal = Matrix2::new(
-        prior_weight(prior.yaw_drift_rad_per_m),
+        prior_weight(prior.sigma.yaw_drift_rad_per_m),
         0.0,
         0.0,
-        prior_weight(prior.yaw_scale_error),
+        prior_weight(prior.sigma.yaw_scale_error),
     );
     let mut rhs = Vector2::new(
-        prior_weight(prior.yaw_drift_rad_per_m) * prior.mean.yaw_drift_rad_per_m,
-        prior_weight(prior.yaw_scale_error) * prior.mean.yaw_scale_error,
+        prior_weight(prior.sigma.yaw_drift_rad_per_m) * prior.mean.yaw_drift_rad_per_m,
+        prior_weight(prior.sigma.yaw_scale_error) * prior.mean.yaw_scale_error,
     );
     // translation: estimated ≈ u · measured, u = 1 / (1 + scale error), prior
     // u ~ N(1 / (1 + mean scale error), σ²)
-    let u_prior = prior_weight(prior.scale_error);
+    let u_prior = prior_weight(prior.sigma.scale_error);
     let (mut num, mut den) = (u_prior / (1.0 + prior.mean.scale_error), u_prior);
     for ((step, pair), w) in steps.iter().zip(poses.windows(2)).zip(weights) {
         let estimated = pair[0].inverse() * pair[1];
@@ -167,15 +181,11 @@ pub fn anderson_step(
     if m == 0 {
         return estimated[last];
     }
-    let sigma = Vector3::new(
-        prior.scale_error,
-        prior.yaw_drift_rad_per_m,
-        prior.yaw_scale_error,
-    )
-    .map(|s| if s > 0.0 && s.is_finite() { s } else { 1.0 });
-    let vector = |b: &OdometryBias| {
-        Vector3::new(b.scale_error, b.yaw_drift_rad_per_m, b.yaw_scale_error).component_div(&sigma)
-    };
+    let sigma = prior
+        .sigma
+        .to_vector()
+        .map(|s| if s > 0.0 && s.is_finite() { s } else { 1.0 });
+    let vector = |b: &OdometryBias| b.to_vector().component_div(&sigma);
     let g: Vec<Vector3<f64>> = estimated[..n].iter().map(vector).collect();
     let f: Vec<Vector3<f64>> = applied[..n]
         .iter()
@@ -190,12 +200,7 @@ pub fn anderson_step(
     if let Ok(gamma) = delta_f.svd(true, true).solve(&rhs, 1e-12) {
         next -= delta_g * gamma;
     }
-    let next = next.component_mul(&sigma);
-    OdometryBias {
-        scale_error: next[0],
-        yaw_drift_rad_per_m: next[1],
-        yaw_scale_error: next[2],
-    }
+    OdometryBias::from_vector(&next.component_mul(&sigma))
 }
 
 /// How far the corrections the odometry factors carry (`applied[i]` on `steps[i]`) are from
@@ -251,6 +256,15 @@ pub fn stale_correction_sigma(
 mod tests {
     use super::*;
 
+    /// One σ of each bias.
+    fn sigma(scale_error: f64, yaw_drift_rad_per_m: f64, yaw_scale_error: f64) -> OdometryBias {
+        OdometryBias {
+            scale_error,
+            yaw_drift_rad_per_m,
+            yaw_scale_error,
+        }
+    }
+
     /// Steps of a drive that goes straight, turns on the spot and drives on, measured with
     /// known biases.
     fn drive(bias: &OdometryBias) -> (Vec<OdometryStep>, Vec<Isometry3<f64>>) {
@@ -301,9 +315,7 @@ mod tests {
         ];
         let prior = BiasPrior {
             mean: OdometryBias::default(),
-            scale_error: 0.01,
-            yaw_drift_rad_per_m: 0.0005,
-            yaw_scale_error: 0.003,
+            sigma: sigma(0.01, 0.0005, 0.003),
         };
         let got = estimate_bias(&steps, &truth, &weights, &prior);
         assert!((got.scale_error - bias.scale_error).abs() < 1e-4, "{got:?}");
@@ -373,9 +385,7 @@ mod tests {
         ];
         let prior = BiasPrior {
             mean: OdometryBias::default(),
-            scale_error: 0.01,
-            yaw_drift_rad_per_m: 0.0005,
-            yaw_scale_error: 0.003,
+            sigma: sigma(0.01, 0.0005, 0.003),
         };
         let got = estimate_bias(&steps, &poses, &weights, &prior);
         assert!(got.scale_error.abs() < 1e-9);
@@ -438,9 +448,7 @@ mod tests {
                 yaw_drift_rad_per_m: 0.0015,
                 ..bias
             },
-            scale_error: 0.0002,
-            yaw_drift_rad_per_m: 0.00003,
-            yaw_scale_error: 0.00002,
+            sigma: sigma(0.0002, 0.00003, 0.00002),
         };
         // no evidence: the carried calibration itself
         let got = estimate_bias(&steps, &truth, &none, &carried);
@@ -468,24 +476,15 @@ mod tests {
         let target = Vector3::new(0.01, 0.0017, -0.0003);
         let prior = BiasPrior {
             mean: OdometryBias::default(),
-            scale_error: 0.02,
-            yaw_drift_rad_per_m: 0.005,
-            yaw_scale_error: 0.003,
+            sigma: sigma(0.02, 0.005, 0.003),
         };
         let round = |b: &OdometryBias| {
-            let x = Vector3::new(b.scale_error, b.yaw_drift_rad_per_m, b.yaw_scale_error);
+            let x = b.to_vector();
             let step = nalgebra::Matrix3::new(0.01, 0.0, 0.0, 0.001, 0.01, 0.0, 0.0, 0.002, 0.02)
                 * (target - x);
-            let y = x + step;
-            OdometryBias {
-                scale_error: y[0],
-                yaw_drift_rad_per_m: y[1],
-                yaw_scale_error: y[2],
-            }
+            OdometryBias::from_vector(&(x + step))
         };
-        let error = |b: &OdometryBias| {
-            (Vector3::new(b.scale_error, b.yaw_drift_rad_per_m, b.yaw_scale_error) - target).norm()
-        };
+        let error = |b: &OdometryBias| (b.to_vector() - target).norm();
         let (mut applied, mut estimated) = (Vec::new(), Vec::new());
         let mut plain = OdometryBias::default();
         let mut accelerated = OdometryBias::default();

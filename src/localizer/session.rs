@@ -426,9 +426,7 @@ fn finish_mapping(
     log: &FrameLog,
     config: &LocalizerConfig,
 ) -> Result<SessionResult, LocalizerError> {
-    let mut graph = TrajectoryGraph::new();
-    // a calibration carried over corrects the odometry from the first frame on
-    graph.bias = config.calibration.known;
+    let mut graph = TrajectoryGraph::batch(config);
     graph.extend(log, config)?;
     if config.factors.lander {
         // in time order, a chunk at a time, each placed with the estimate the earlier

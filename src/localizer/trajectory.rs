@@ -200,12 +200,20 @@ impl TrajectoryGraph {
         }
     }
 
-    /// An empty graph solved as `config.online_graph` says while driving.
+    /// An empty graph solved in batch, its odometry corrected from the first step on by the
+    /// calibration carried over (`config.calibration.known`).
+    pub fn batch(config: &LocalizerConfig) -> Self {
+        Self {
+            bias: config.calibration.known,
+            ..Self::new()
+        }
+    }
+
+    /// [`TrajectoryGraph::batch`], solved as `config.online_graph` says while driving.
     pub fn online(config: &LocalizerConfig) -> Self {
         Self {
             online: config.online_graph.incremental,
-            bias: config.calibration.known,
-            ..Self::new()
+            ..Self::batch(config)
         }
     }
 
