@@ -106,13 +106,17 @@ fn refuses_bad_input_and_writes_nothing() {
 }
 
 /// `segloc eval render` on one half-resolution frame: the JSON has the documented blocks and
-/// names the segmenter; a sun below the horizon is refused naming the field, and so is a
-/// breakdown (the geometric segmenter's stages) asked of another segmenter.
+/// names the segmenter, and the breakdown follows the front end's own masks; a sun below the
+/// horizon is refused naming the field.
 #[test]
 fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
+    let tmp = tempfile::tempdir().unwrap();
+    let breakdown = tmp.path().join("breakdown.jsonl");
     let run = segloc()
         .args(["eval", "render", "--seeds", "3", "--sun-deg", "15"])
         .args(["--seconds", "2", "--every", "100", "--half", "--json"])
+        .arg("--breakdown")
+        .arg(&breakdown)
         .output()
         .unwrap();
     assert_success(&run);
@@ -123,21 +127,22 @@ fn eval_render_scores_a_frame_and_refuses_a_bad_sun() {
     }
     assert_eq!(v["by_range"].as_array().map(Vec::len), Some(3));
     assert_eq!(v["segmenter"], "geometric");
-    let eval_seed_3 = || {
-        let mut command = segloc();
-        command.args(["eval", "render", "--seeds", "3", "--half"]);
-        command
-    };
-    let run = eval_seed_3()
-        .args([
-            "--segmenter",
-            "learned",
-            "--breakdown",
-            "never-written.jsonl",
-        ])
+    let text = std::fs::read_to_string(&breakdown).unwrap();
+    let rocks: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(!rocks.is_empty());
+    for rock in &rocks {
+        let verdict = rock["mask_verdict"].as_str().unwrap();
+        if rock["detected"] == true {
+            assert_eq!(verdict, "boulder", "{rock}");
+        }
+    }
+    let run = segloc()
+        .args(["eval", "render", "--seeds", "3", "--half"])
+        .args(["--sun-deg", "-2"])
         .output()
         .unwrap();
-    assert_refused(&run, "--breakdown");
-    let run = eval_seed_3().args(["--sun-deg", "-2"]).output().unwrap();
     assert_refused(&run, "sun_elevation_deg");
 }

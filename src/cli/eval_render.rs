@@ -54,8 +54,9 @@ pub struct EvalRenderArgs {
     /// Write every frame's rocks and detections as JSON lines here.
     #[arg(long, value_name = "FILE")]
     frames: Option<PathBuf>,
-    /// Write a diagnosis of every counted rock (stages, cause of a miss) as JSON lines here
-    /// (the geometric segmenter's stages).
+    /// Write a diagnosis of every counted rock (stages, cause of a miss) as JSON lines here:
+    /// the geometric segmenter's stages, and the front end's own mask on the rock and the
+    /// boulder stage's verdict on it (`mask_*`, whatever the segmenter).
     #[arg(long, value_name = "FILE")]
     breakdown: Option<PathBuf>,
     /// Print one JSON object.
@@ -104,9 +105,6 @@ pub fn run(args: &EvalRenderArgs) -> Result<i32> {
         .context("--sun-deg")?;
     }
     let config = load_frontend_config(args.frontend_config.as_deref())?;
-    if args.breakdown.is_some() && !matches!(args.segmenter, SegmenterKind::Geometric) {
-        bail!("--breakdown diagnoses the geometric segmenter's stages; drop it or use --segmenter geometric");
-    }
     let segmenter = make_segmenter(args.segmenter, args.model.as_deref(), &config)?;
     let mut front_end = FrontEnd::new(config, segmenter)?;
     let options = RenderEvalOptions {

@@ -5,7 +5,9 @@
 //! (valid fraction, depth error against the rendered depth), the estimated height above the
 //! ground, the geometric segmenter's regions covering it (kept or dropped, and why), the
 //! boulder stage's verdict on their masks, and the match. A missed rock gets the first cause
-//! along the pipeline ([`miss_cause`]). `segloc eval render --breakdown FILE` writes them.
+//! along the pipeline ([`miss_cause`]). Whatever the segmenter, the `mask_*` fields follow
+//! the front end's own mask covering most of the rock and the boulder stage's verdict on
+//! it. `segloc eval render --breakdown FILE` writes them.
 
 use crate::perception::geometric::{segment_geometric_regions, Region};
 use crate::perception::ground::{height_above_ground, HeightMap};
@@ -62,6 +64,15 @@ pub struct RockDiagnosis {
     /// Range of that boulder minus the range of the visible centre, metres (the error's
     /// component along the line of sight; NaN: no boulder).
     pub boulder_range_error_m: f64,
+    /// Fraction of its left-image pixels in the front end's mask covering most of it,
+    /// whatever the segmenter (0: none).
+    pub mask_cover: f64,
+    /// Fraction of that mask's pixels on this rock.
+    pub mask_purity: f64,
+    /// The boulder stage's verdict on that mask: "boulder", the rejection, or "no mask".
+    pub mask_verdict: String,
+    /// Distance of that mask's boulder to its visible centre, metres (NaN: no boulder).
+    pub mask_boulder_error_m: f64,
     /// Whether a detection matched it.
     pub detected: bool,
     /// The first cause along the pipeline for a missed rock; "detected" otherwise.
@@ -264,6 +275,7 @@ fn diagnose_rock(
     let (boulder_error_m, boulder_range_error_m, verdict) = main
         .map(|(k, _)| main_verdict(k, &grid.regions, grid.result, grid.frame, rock.id))
         .unwrap_or((f64::NAN, f64::NAN, Verdict::NoMask));
+    let mask = front_end_mask(grid.result, grid.frame, rock.id);
     let mut d = RockDiagnosis {
         seed: score.seed,
         sun_elevation_deg: score.sun_elevation_deg,
@@ -289,6 +301,10 @@ fn diagnose_rock(
             .count(),
         boulder_error_m,
         boulder_range_error_m,
+        mask_cover: mask.cover,
+        mask_purity: mask.purity,
+        mask_verdict: mask.verdict,
+        mask_boulder_error_m: mask.boulder_error_m,
         detected: rock.error_m.is_some(),
         cause: String::new(),
     };
@@ -383,6 +399,67 @@ fn main_verdict(
     }
 }
 
+/// The front end's mask covering most of a rock, whatever the segmenter.
+struct MaskOnRock {
+    cover: f64,
+    purity: f64,
+    verdict: String,
+    boulder_error_m: f64,
+}
+
+/// The front end's mask (left-image pixels) covering most of rock `id`, and what the boulder
+/// stage made of it.
+fn front_end_mask(result: &FrameResult, frame: &StereoFrame, id: usize) -> MaskOnRock {
+    let (w, instance) = (frame.left.width, &frame.instance);
+    let target = id as u32 + 1;
+    let rock_pixels = instance.iter().filter(|&&i| i == target).count().max(1);
+    let on_rock = |m: &crate::perception::Mask| {
+        let (mut on, mut all) = (0usize, 0usize);
+        for (k, _) in m.bits.iter().enumerate().filter(|(_, b)| **b) {
+            let (x, y) = (m.x0 + k % m.width, m.y0 + k / m.width);
+            all += 1;
+            on += usize::from(instance.get(y * w + x) == Some(&target));
+        }
+        (on, all)
+    };
+    let best = result
+        .masks
+        .iter()
+        .enumerate()
+        .map(|(k, m)| (k, on_rock(m)))
+        .filter(|(_, (on, _))| *on > 0)
+        .max_by_key(|(_, (on, _))| *on);
+    let Some((k, (on, all))) = best else {
+        return MaskOnRock {
+            cover: 0.0,
+            purity: 0.0,
+            verdict: "no mask".into(),
+            boulder_error_m: f64::NAN,
+        };
+    };
+    let (verdict, boulder_error_m) = match &result.verdicts[k] {
+        Err(rejection) => (format!("{rejection:?}"), f64::NAN),
+        Ok(b) => {
+            let [x, y, z] = result.boulders[*b].position_camera;
+            let p_world = frame.world_from_left * nalgebra::Point3::new(x, y, z);
+            let e = frame
+                .rocks
+                .iter()
+                .find(|r| r.id == id)
+                .map_or(f64::NAN, |r| {
+                    (p_world - nalgebra::Point3::from(r.visible_center_world)).norm()
+                });
+            ("boulder".into(), e)
+        }
+    };
+    MaskOnRock {
+        cover: on as f64 / rock_pixels as f64,
+        purity: on as f64 / all.max(1) as f64,
+        verdict,
+        boulder_error_m,
+    }
+}
+
 /// The first cause along the pipeline why a rock was missed ("detected" when it was not).
 pub fn miss_cause(
     d: &RockDiagnosis,
@@ -453,6 +530,10 @@ mod tests {
             regions_over_quarter: 1,
             boulder_error_m: 0.05,
             boulder_range_error_m: 0.04,
+            mask_cover: 0.8,
+            mask_purity: 0.8,
+            mask_verdict: "boulder".into(),
+            mask_boulder_error_m: 0.05,
             detected: false,
             cause: String::new(),
         }

@@ -5,9 +5,10 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::boulders::{boulders_from_masks, Boulder, BoulderConfig, Rejection};
+use super::depth_split::split_by_depth;
 use super::geometric::GeometricConfig;
-use super::ground::height_above_ground;
-use super::relief_gate::{check_mask, ReliefGateConfig};
+use super::ground::{height_above_ground, HeightMap};
+use super::relief_gate::{check_mask, trim_to_relief, ReliefGateConfig};
 use super::segmenter::{SegmentInput, Segmenter};
 use super::{compute_disparity_with, CameraMount, DisparityMap, GrayImage, Mask, PerceptionError};
 use super::{StereoCamera, StereoConfig, StereoScratch};
@@ -33,6 +34,8 @@ pub struct FrontEndConfig {
     /// The stereo check of image-only segmenters' boulders (relief, foot, structure,
     /// shadow).
     pub relief: ReliefGateConfig,
+    /// Splitting image-only segmenters' masks that span two depths.
+    pub split: super::depth_split::DepthSplitConfig,
 }
 
 /// Wall-clock times of the stages, milliseconds.
@@ -79,6 +82,7 @@ impl FrontEnd {
         config.stereo.validate()?;
         config.boulders.validate()?;
         config.relief.validate()?;
+        config.split.validate()?;
         Ok(FrontEnd {
             config,
             segmenter,
@@ -112,8 +116,14 @@ impl FrontEnd {
             disparity: &disparity,
             camera: &camera,
         })?;
+        let image_only = !self.segmenter.checks_relief();
+        let masks = if image_only {
+            split_by_depth(&masks, &disparity, &self.config.split)
+        } else {
+            masks
+        };
         let t_segment = start.elapsed();
-        let check_relief = self.config.relief.enabled && !self.segmenter.checks_relief();
+        let check_relief = self.config.relief.enabled && image_only;
         let boulder_config = BoulderConfig {
             max_elongation: if check_relief {
                 self.config.relief.max_elongation
@@ -122,16 +132,23 @@ impl FrontEnd {
             },
             ..self.config.boulders.clone()
         };
+        // the heights above the ground the stereo check and the trimming judge by
+        let heights = check_relief
+            .then(|| height_above_ground(&disparity, &self.config.geometric.ground))
+            .flatten();
+        let trimmed = heights
+            .as_ref()
+            .and_then(|h| self.trimmed_masks(&masks, h, disparity.scale));
         let mut outcomes = boulders_from_masks(
-            &masks,
+            trimmed.as_deref().unwrap_or(&masks),
             &disparity,
             &camera,
             &self.config.mount,
             &boulder_config,
             Some((left, right)),
         );
-        if check_relief {
-            self.apply_stereo_check(&masks, left, &disparity, &mut outcomes);
+        if let Some(heights) = &heights {
+            self.apply_stereo_check(&masks, left, &disparity, heights, &mut outcomes);
         }
         let mut boulders = Vec::new();
         let verdicts = outcomes
@@ -159,6 +176,29 @@ impl FrontEnd {
         })
     }
 
+    /// The masks trimmed to the pixels that stand out of the ground
+    /// ([`trim_to_relief`](super::relief_gate::trim_to_relief)); a mask that cannot be
+    /// trimmed stays whole. `None` when trimming is off.
+    fn trimmed_masks(
+        &self,
+        masks: &[Mask],
+        heights: &HeightMap,
+        scale: usize,
+    ) -> Option<Vec<Mask>> {
+        let gate = &self.config.relief;
+        if gate.trim_fraction <= 0.0 {
+            return None;
+        }
+        let min_pixels = self.config.boulders.min_area_px;
+        let trim = |m: &Mask| trim_to_relief(m, heights, scale, gate, min_pixels);
+        Some(
+            masks
+                .iter()
+                .map(|m| trim(m).unwrap_or_else(|| m.clone()))
+                .collect(),
+        )
+    }
+
     /// Rejects the boulders whose masks do not stand out of the ground, float, belong to a
     /// structure or lie in hard shadow (see [`relief_gate`](super::relief_gate)); without a
     /// ground estimate, nothing is judged.
@@ -167,16 +207,14 @@ impl FrontEnd {
         masks: &[Mask],
         left: &GrayImage,
         disparity: &DisparityMap,
+        heights: &HeightMap,
         outcomes: &mut [Result<Boulder, Rejection>],
     ) {
-        let Some(heights) = height_above_ground(disparity, &self.config.geometric.ground) else {
-            return;
-        };
         let (geometric, gate) = (&self.config.geometric, &self.config.relief);
         for (mask, outcome) in masks.iter().zip(outcomes.iter_mut()) {
             let Ok(boulder) = outcome else { continue };
             let depth_m = boulder.depth_m;
-            let verdict = check_mask(mask, left, depth_m, &heights, disparity, geometric, gate);
+            let verdict = check_mask(mask, left, depth_m, heights, disparity, geometric, gate);
             if let Err(why) = verdict {
                 *outcome = Err(why);
             }

@@ -28,6 +28,7 @@ pub use error::PerceptionError;
 pub use gray_image::{read_gray_png, write_gray_png, GrayImage};
 pub use sgm::{compute_disparity, compute_disparity_with, StereoConfig, StereoScratch};
 pub mod boulders;
+pub mod depth_split;
 pub mod front_end;
 pub mod geometric;
 pub mod ground;
