@@ -118,14 +118,9 @@ pub fn check_mask(
     config: &ReliefGateConfig,
 ) -> Result<(), Rejection> {
     let cells = grid_cells(mask, heights.width, heights.height, disparity.scale);
-    let mut values: Vec<f32> = cells
-        .iter()
-        .map(|&p| heights.above_ground_m[p])
-        .filter(|v| v.is_finite())
-        .collect();
-    if values.len() < config.min_samples.max(1) {
+    let Some(mut values) = judged_heights(&cells, heights, config) else {
         return Ok(());
-    }
+    };
     if (quantile(&mut values, config.quantile) as f64) < config.threshold_at(depth_m) {
         return Err(Rejection::Flat);
     }
@@ -164,14 +159,7 @@ pub fn trim_to_relief(
             .filter(|v| v.is_finite())
     };
     let cells = grid_cells(mask, heights.width, heights.height, scale);
-    let mut values: Vec<f32> = cells
-        .iter()
-        .map(|&p| heights.above_ground_m[p])
-        .filter(|v| v.is_finite())
-        .collect();
-    if values.len() < config.min_samples.max(1) {
-        return None;
-    }
+    let mut values = judged_heights(&cells, heights, config)?;
     let cut = config.trim_fraction as f32 * quantile(&mut values, config.quantile);
     let kept: Vec<(usize, usize)> = mask
         .pixels()
@@ -191,6 +179,21 @@ fn in_shadow(mask: &Mask, left: &GrayImage, geometric: &GeometricConfig) -> bool
         .map(|(x, y)| left.get(x, y));
     let (shadow, lit) = geometric.shade_fractions(grey);
     geometric.is_shadow(shadow, lit)
+}
+
+/// The finite heights above the ground of `cells`; `None` when fewer than the
+/// `min_samples` a judgement needs.
+fn judged_heights(
+    cells: &[usize],
+    heights: &HeightMap,
+    config: &ReliefGateConfig,
+) -> Option<Vec<f32>> {
+    let values: Vec<f32> = cells
+        .iter()
+        .map(|&p| heights.above_ground_m[p])
+        .filter(|v| v.is_finite())
+        .collect();
+    (values.len() >= config.min_samples.max(1)).then_some(values)
 }
 
 /// The disparity-grid cells (`scale` image pixels a side) holding `mask`'s pixels, each
