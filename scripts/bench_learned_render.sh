@@ -55,7 +55,8 @@ for seeds in ("1-10", "201-210"):
               f"{100*o['centroid_error_median_m']:.1f} / {100*o['centroid_error_p90_m']:.1f} cm | {rec} | {prec} | "
               f"{r['front_end_ms']['median']:.0f} |")
 print("\nTargets (issue 26 front end, issue 28 rendered held-out): recall ≥ 0.9 / 0.95, precision ≥ 0.9 / 0.95: **not met**. "
-      "What the learned front end does between the network and the boulders: [depth-split.md](docs/design/depth-split.md).")
+      "What the learned front end does between the network and the boulders: [depth-split.md](docs/design/depth-split.md). "
+      "The front-end times are at the load shown, other jobs sharing the cores: not a speed figure (that is the segmenter section's).")
 PY
 )
 if [[ "${PRINT:-0}" == 1 ]]; then echo "$section"; else echo "$section" | python3 scripts/bench_section.py learned-render; fi
