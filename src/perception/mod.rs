@@ -10,6 +10,9 @@
 //!    segloc's own U-Net trained on rendered frames ([`unet_decoder`]);
 //! 3. [`boulders`]: masks that touch the border, are too elongated or of an implausible
 //!    physical size are dropped; the rest become boulders with a 3D centroid and a size.
+//!    An image-only segmenter's masks are first split where they span two depths
+//!    ([`depth_split`]), measured on their pixels that stand out of the ground and checked
+//!    against the relief ([`relief_gate`]).
 //!
 //! [`FrontEnd`] runs the three steps on one stereo pair and times them.
 #![allow(clippy::too_many_arguments)]
