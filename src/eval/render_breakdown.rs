@@ -275,7 +275,7 @@ fn diagnose_rock(
     let (boulder_error_m, boulder_range_error_m, verdict) = main
         .map(|(k, _)| main_verdict(k, &grid.regions, grid.result, grid.frame, rock.id))
         .unwrap_or((f64::NAN, f64::NAN, Verdict::NoMask));
-    let mask = front_end_mask(grid.result, grid.frame, rock.id);
+    let mask = front_end_mask(grid.result, grid.frame, rock);
     let mut d = RockDiagnosis {
         seed: score.seed,
         sun_elevation_deg: score.sun_elevation_deg,
@@ -372,9 +372,20 @@ fn main_verdict(
     let Ok(mask) = &regions[k].outcome else {
         return (f64::NAN, f64::NAN, Verdict::NoMask);
     };
-    let Some(m) = result.masks.iter().position(|x| x == mask) else {
-        return (f64::NAN, f64::NAN, Verdict::NoMask);
-    };
+    match result.masks.iter().position(|x| x == mask) {
+        Some(m) => mask_verdict(m, result, frame, rock),
+        None => (f64::NAN, f64::NAN, Verdict::NoMask),
+    }
+}
+
+/// The boulder stage's verdict on the front end's mask `m`, and its boulder's distance to
+/// rock `rock`'s visible centre and range error (NaN without a boulder).
+fn mask_verdict(
+    m: usize,
+    result: &FrameResult,
+    frame: &StereoFrame,
+    rock: usize,
+) -> (f64, f64, Verdict) {
     match &result.verdicts[m] {
         Err(rejection) => (
             f64::NAN,
@@ -407,18 +418,15 @@ struct MaskOnRock {
     boulder_error_m: f64,
 }
 
-/// The front end's mask (left-image pixels) covering most of rock `id`, and what the boulder
+/// The front end's mask (left-image pixels) covering most of `rock`, and what the boulder
 /// stage made of it.
-fn front_end_mask(result: &FrameResult, frame: &StereoFrame, id: usize) -> MaskOnRock {
-    let (w, instance) = (frame.left.width, &frame.instance);
-    let target = id as u32 + 1;
-    let rock_pixels = instance.iter().filter(|&&i| i == target).count().max(1);
+fn front_end_mask(result: &FrameResult, frame: &StereoFrame, rock: &RockOutcome) -> MaskOnRock {
+    let (w, target) = (frame.left.width, rock.id as u32 + 1);
     let on_rock = |m: &crate::perception::Mask| {
         let (mut on, mut all) = (0usize, 0usize);
-        for (k, _) in m.bits.iter().enumerate().filter(|(_, b)| **b) {
-            let (x, y) = (m.x0 + k % m.width, m.y0 + k / m.width);
+        for (x, y) in m.pixels() {
             all += 1;
-            on += usize::from(instance.get(y * w + x) == Some(&target));
+            on += usize::from(frame.instance.get(y * w + x) == Some(&target));
         }
         (on, all)
     };
@@ -437,23 +445,14 @@ fn front_end_mask(result: &FrameResult, frame: &StereoFrame, id: usize) -> MaskO
             boulder_error_m: f64::NAN,
         };
     };
-    let (verdict, boulder_error_m) = match &result.verdicts[k] {
-        Err(rejection) => (format!("{rejection:?}"), f64::NAN),
-        Ok(b) => {
-            let [x, y, z] = result.boulders[*b].position_camera;
-            let p_world = frame.world_from_left * nalgebra::Point3::new(x, y, z);
-            let e = frame
-                .rocks
-                .iter()
-                .find(|r| r.id == id)
-                .map_or(f64::NAN, |r| {
-                    (p_world - nalgebra::Point3::from(r.visible_center_world)).norm()
-                });
-            ("boulder".into(), e)
-        }
+    let (boulder_error_m, _, verdict) = mask_verdict(k, result, frame, rock.id);
+    let verdict = match verdict {
+        Verdict::Rejected(rejection) => rejection,
+        Verdict::Boulder => "boulder".into(),
+        Verdict::NoMask => "no mask".into(),
     };
     MaskOnRock {
-        cover: on as f64 / rock_pixels as f64,
+        cover: on as f64 / rock.pixels.max(1) as f64,
         purity: on as f64 / all.max(1) as f64,
         verdict,
         boulder_error_m,
